@@ -1,0 +1,38 @@
+# cellray_add_isa_units(<target> [SOURCES <file>...])
+#
+# Compiles cellray's ISA unit (every entry point) once per ISA -- SSE4.2,
+# AVX2+FMA, AVX-512 -- each with that ISA's flags and -DCELLRAY_ISA_UNIT=0|1|2,
+# and links the three objects into <target>, so `cellray::dispatch` can pick
+# the best ISA at run time. SOURCES adds more files compiled the same way
+# (e.g. test-only instantiations); OPTIONS adds compile options to the ISA
+# objects (e.g. warnings). The target itself keeps baseline flags.
+
+if(NOT DEFINED CELLRAY_ISA_UNIT_SOURCE)  # the installed config sets it
+  set(CELLRAY_ISA_UNIT_SOURCE "${CMAKE_CURRENT_LIST_DIR}/../include/cellray/dispatch/isa_unit.cpp")
+endif()
+
+set(CELLRAY_ISA_FLAGS_0 "-msse4.2" CACHE INTERNAL "")
+set(CELLRAY_ISA_FLAGS_1 "-msse4.2;-mavx2;-mfma" CACHE INTERNAL "")
+set(CELLRAY_ISA_FLAGS_2 "-msse4.2;-mavx2;-mfma;-mavx512f;-mavx512cd;-mavx512dq;-mavx512bw" CACHE INTERNAL "")
+# GCC 12 warns falsely about '__Y' in avx512fintrin.h at -O1 and above; these
+# must come after any -Wall, so they are applied last (see below).
+set(CELLRAY_ISA_LATE_FLAGS_2 "$<$<CXX_COMPILER_ID:GNU>:-Wno-uninitialized;-Wno-maybe-uninitialized>" CACHE INTERNAL "")
+set(CELLRAY_ISA_NAMES sse4 avx2 avx512 CACHE INTERNAL "")
+
+function(cellray_add_isa_units target)
+  cmake_parse_arguments(ARG "NO_LIBRARY_UNIT" "" "SOURCES;OPTIONS" ${ARGN})
+  set(sources ${ARG_SOURCES})
+  if(NOT ARG_NO_LIBRARY_UNIT)
+    list(APPEND sources "${CELLRAY_ISA_UNIT_SOURCE}")
+  endif()
+  foreach(i 0 1 2)
+    list(GET CELLRAY_ISA_NAMES ${i} isa)
+    set(obj ${target}_isa_${isa})
+    add_library(${obj} OBJECT ${sources})
+    target_link_libraries(${obj} PRIVATE cellray::cellray)
+    target_compile_definitions(${obj} PRIVATE CELLRAY_ISA_UNIT=${i})
+    target_compile_options(${obj} PRIVATE ${CELLRAY_ISA_FLAGS_${i}})
+    target_compile_options(${obj} PRIVATE ${ARG_OPTIONS} ${CELLRAY_ISA_LATE_FLAGS_${i}})
+    target_sources(${target} PRIVATE $<TARGET_OBJECTS:${obj}>)
+  endforeach()
+endfunction()

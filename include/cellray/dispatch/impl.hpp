@@ -1,0 +1,6 @@
+#pragma once
+// Every entry point body, for the ISA units (dispatch/isa_unit.cpp) only.
+// A host that builds for one ISA may include this and call `Entry<Arch>`
+// directly instead of linking the ISA units.
+
+#include "../mesh/cell_boxes_impl.hpp"

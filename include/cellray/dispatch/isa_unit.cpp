@@ -1,0 +1,10 @@
+// One ISA unit: compiled once per ISA by cellray_add_isa_units() with
+// -DCELLRAY_ISA_UNIT=0|1|2 and that ISA's flags. It instantiates every entry
+// point for that ISA; nothing else may be defined here (see dispatch.hpp).
+
+#include <cellray/dispatch/impl.hpp>
+
+namespace cellray {
+CELLRAY_INSTANTIATE_ENTRY(CellBoxes)
+CELLRAY_INSTANTIATE_ENTRY(CellRanges)
+}  // namespace cellray

@@ -1,0 +1,186 @@
+#pragma once
+// Width-templated batch aliases and the helpers xsimd 8.1 lacks.
+//
+// Code written against these compiles for every arch tag in arch.hpp,
+// including `scalar` (plain float/int/bool). Kernels use only `+ - * /`,
+// comparisons, `! && ||` on masks and the functions below, so one body serves
+// all widths. Intrinsics live here only, behind `if constexpr`.
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <type_traits>
+
+#include <immintrin.h>
+#include <xsimd/xsimd.hpp>
+
+#include "arch.hpp"
+
+namespace cellray {
+inline namespace CELLRAY_ISA_NS {
+
+namespace detail {
+template <class Arch> struct batch_types {
+  using f = xsimd::batch<float, Arch>;
+  using i = xsimd::batch<int32_t, Arch>;
+  using m = xsimd::batch_bool<float, Arch>;
+  using mi = xsimd::batch_bool<int32_t, Arch>;
+  static constexpr int width = int(f::size);
+};
+template <> struct batch_types<scalar> {
+  using f = float;
+  using i = int32_t;
+  using m = bool;
+  using mi = bool;
+  static constexpr int width = 1;
+};
+}  // namespace detail
+
+template <class Arch> using vfloat = typename detail::batch_types<Arch>::f;
+template <class Arch> using vint = typename detail::batch_types<Arch>::i;
+template <class Arch> using vmask = typename detail::batch_types<Arch>::m;
+template <class Arch> using vmaski = typename detail::batch_types<Arch>::mi;
+/// Lanes per batch: 1, 4, 8 or 16.
+template <class Arch> inline constexpr int width = detail::batch_types<Arch>::width;
+
+namespace simd {
+
+template <class Arch> constexpr bool is_avx512 = std::is_base_of_v<xsimd::avx512f, Arch>;
+template <class Arch> constexpr bool is_avx2 = std::is_base_of_v<xsimd::avx2, Arch>;
+
+template <class Arch> inline vfloat<Arch> splat(float x) noexcept { return vfloat<Arch>(x); }
+template <class Arch> inline vint<Arch> splat_int(int32_t x) noexcept { return vint<Arch>(x); }
+
+/// Unaligned load of `width<Arch>` floats.
+template <class Arch> inline vfloat<Arch> load(float const* p) noexcept {
+  if constexpr (std::is_same_v<Arch, scalar>) return *p;
+  else return vfloat<Arch>::load_unaligned(p);
+}
+template <class Arch> inline vint<Arch> load(int32_t const* p) noexcept {
+  if constexpr (std::is_same_v<Arch, scalar>) return *p;
+  else return vint<Arch>::load_unaligned(p);
+}
+inline void store(float* p, float v) noexcept { *p = v; }
+inline void store(int32_t* p, int32_t v) noexcept { *p = v; }
+template <class T, class A> inline void store(T* p, xsimd::batch<T, A> const& v) noexcept {
+  v.store_unaligned(p);
+}
+
+/// Lane values as a std::array, for the scalar tails of SIMD code and tests.
+template <class Arch, class V> inline auto to_array(V const& v) noexcept {
+  using T = std::conditional_t<std::is_same_v<V, vint<Arch>>, int32_t, float>;
+  std::array<T, width<Arch>> out{};
+  store(out.data(), v);
+  return out;
+}
+
+/// 0, 1, ..., W-1.
+template <class Arch> inline vint<Arch> lane_index() noexcept {
+  std::array<int32_t, width<Arch>> idx{};
+  for (int i = 0; i < width<Arch>; ++i) idx[size_t(i)] = i;
+  return load<Arch>(idx.data());
+}
+
+inline float select(bool m, float a, float b) noexcept { return m ? a : b; }
+inline int32_t select(bool m, int32_t a, int32_t b) noexcept { return m ? a : b; }
+template <class T, class A>
+inline xsimd::batch<T, A> select(xsimd::batch_bool<T, A> const& m, xsimd::batch<T, A> const& a,
+                                 xsimd::batch<T, A> const& b) noexcept {
+  return xsimd::select(m, a, b);
+}
+
+inline float min(float a, float b) noexcept { return a < b ? a : b; }
+inline float max(float a, float b) noexcept { return a > b ? a : b; }
+inline float abs(float a) noexcept { return std::fabs(a); }
+inline float sqrt(float a) noexcept { return std::sqrt(a); }
+template <class A> inline xsimd::batch<float, A> min(xsimd::batch<float, A> const& a, xsimd::batch<float, A> const& b) noexcept {
+  return xsimd::select(a < b, a, b);  // same NaN rule as the scalar path: b when unordered
+}
+template <class A> inline xsimd::batch<float, A> max(xsimd::batch<float, A> const& a, xsimd::batch<float, A> const& b) noexcept {
+  return xsimd::select(a > b, a, b);
+}
+template <class A> inline xsimd::batch<float, A> abs(xsimd::batch<float, A> const& a) noexcept { return xsimd::abs(a); }
+template <class A> inline xsimd::batch<float, A> sqrt(xsimd::batch<float, A> const& a) noexcept { return xsimd::sqrt(a); }
+
+/// a*b + c, fused on AVX2 and AVX-512 (xsimd 8.1 only fuses AVX-512 when the
+/// compiler contracts `x*y+z`, which clang and -ffp-contract=off do not).
+/// SSE4.2 has no FMA instruction, so it and the scalar path round twice.
+inline float fmadd(float a, float b, float c) noexcept { return a * b + c; }
+template <class A>
+inline xsimd::batch<float, A> fmadd(xsimd::batch<float, A> const& a, xsimd::batch<float, A> const& b,
+                                    xsimd::batch<float, A> const& c) noexcept {
+  if constexpr (is_avx512<A>) return _mm512_fmadd_ps(a, b, c);
+  else if constexpr (is_avx2<A>) return _mm256_fmadd_ps(a, b, c);
+  else return a * b + c;
+}
+
+inline bool any(bool m) noexcept { return m; }
+inline bool all(bool m) noexcept { return m; }
+inline bool none(bool m) noexcept { return !m; }
+template <class T, class A> inline bool any(xsimd::batch_bool<T, A> const& m) noexcept { return xsimd::any(m); }
+template <class T, class A> inline bool all(xsimd::batch_bool<T, A> const& m) noexcept { return xsimd::all(m); }
+template <class T, class A> inline bool none(xsimd::batch_bool<T, A> const& m) noexcept { return xsimd::none(m); }
+
+/// Bit i set when lane i is true.
+inline uint32_t movemask(bool m) noexcept { return m ? 1u : 0u; }
+template <class A> inline uint32_t movemask(xsimd::batch_bool<float, A> const& m) noexcept {
+  if constexpr (is_avx512<A>) return uint32_t(m.data);
+  else if constexpr (std::is_base_of_v<xsimd::avx, A>) return uint32_t(_mm256_movemask_ps(m));
+  else return uint32_t(_mm_movemask_ps(m));
+}
+
+/// Float mask <-> int mask, for selecting indices with a float comparison.
+inline bool to_int_mask(bool m) noexcept { return m; }
+inline bool to_float_mask(bool m) noexcept { return m; }
+template <class A> inline xsimd::batch_bool<int32_t, A> to_int_mask(xsimd::batch_bool<float, A> const& m) noexcept {
+  if constexpr (is_avx512<A>) return xsimd::batch_bool<int32_t, A>(m.data);
+  else if constexpr (std::is_base_of_v<xsimd::avx, A>) return xsimd::batch_bool<int32_t, A>(_mm256_castps_si256(m));
+  else return xsimd::batch_bool<int32_t, A>(_mm_castps_si128(m));
+}
+template <class A> inline xsimd::batch_bool<float, A> to_float_mask(xsimd::batch_bool<int32_t, A> const& m) noexcept {
+  if constexpr (is_avx512<A>) return xsimd::batch_bool<float, A>(m.data);
+  else if constexpr (std::is_base_of_v<xsimd::avx, A>) return xsimd::batch_bool<float, A>(_mm256_castsi256_ps(m));
+  else return xsimd::batch_bool<float, A>(_mm_castsi128_ps(m));
+}
+
+/// Lane i true when bit i of `bits` is set.
+template <class Arch> inline vmask<Arch> mask_from_bits(uint32_t bits) noexcept {
+  if constexpr (std::is_same_v<Arch, scalar>) return (bits & 1u) != 0;
+  else if constexpr (is_avx512<Arch>) return vmask<Arch>(__mmask16(bits));
+  else {
+    vint<Arch> bit = vint<Arch>(1) << lane_index<Arch>();
+    return to_float_mask((vint<Arch>(int32_t(bits)) & bit) != vint<Arch>(0));
+  }
+}
+
+/// base[idx[i]] per lane. Native gathers on AVX2 and AVX-512 (xsimd 8.1's
+/// `gather` is a scalar loop). Every lane's index must be valid: clamp the
+/// indices of inactive lanes to 0 first.
+inline float gather(float const* base, int32_t idx) noexcept { return base[idx]; }
+template <class A> inline xsimd::batch<float, A> gather(float const* base, xsimd::batch<int32_t, A> const& idx) noexcept {
+  if constexpr (is_avx512<A>) return _mm512_i32gather_ps(idx, base, 4);
+  else if constexpr (is_avx2<A>) return _mm256_i32gather_ps(base, idx, 4);
+  else {
+    alignas(16) int32_t i[4];
+    idx.store_aligned(i);
+    return _mm_setr_ps(base[i[0]], base[i[1]], base[i[2]], base[i[3]]);
+  }
+}
+inline int32_t gather(int32_t const* base, int32_t idx) noexcept { return base[idx]; }
+template <class A> inline xsimd::batch<int32_t, A> gather(int32_t const* base, xsimd::batch<int32_t, A> const& idx) noexcept {
+  if constexpr (is_avx512<A>) return _mm512_i32gather_epi32(idx, base, 4);
+  else if constexpr (is_avx2<A>) return _mm256_i32gather_epi32(base, idx, 4);
+  else {
+    alignas(16) int32_t i[4];
+    idx.store_aligned(i);
+    return _mm_setr_epi32(base[i[0]], base[i[1]], base[i[2]], base[i[3]]);
+  }
+}
+
+inline bool isnan(float x) noexcept { return x != x; }
+// Not `x != x`: xsimd compiles != to an ordered compare on AVX (false for NaN).
+template <class A> inline xsimd::batch_bool<float, A> isnan(xsimd::batch<float, A> const& x) noexcept { return !(x == x); }
+
+}  // namespace simd
+}  // namespace CELLRAY_ISA_NS
+}  // namespace cellray
