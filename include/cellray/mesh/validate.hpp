@@ -1,0 +1,194 @@
+#pragma once
+// validate(mesh): what is wrong with a mesh view, found before any kernel
+// runs. Errors (bad indices, non-finite positions) make `ok()` false and stop
+// rendering; warnings (non-finite values, zero-volume or inverted cells) are
+// reported and rendered with a documented outcome: a cell with a NaN value
+// is invisible; a zero-volume cell is never hit; an inverted cell renders
+// like its mirror image (the kernels do not depend on orientation).
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <ostream>
+#include <sstream>
+#include <string>
+
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
+#include "cell_mesh.hpp"
+
+namespace cellray {
+
+/// A count of offending items and the smallest id among them (or none).
+struct Finding {
+  uint64_t count = 0;
+  uint64_t first = std::numeric_limits<uint64_t>::max();  ///< cell or vertex id
+
+  void add(uint64_t id) {
+    ++count;
+    first = std::min(first, id);
+  }
+  void merge(Finding const& o) {
+    count += o.count;
+    first = std::min(first, o.first);
+  }
+  explicit operator bool() const { return count != 0; }
+};
+
+/// What `validate()` found. Cheap to copy; `message()` is one line per finding.
+struct ValidationReport {
+  CellType cell_type = CellType::tet;
+  uint64_t cells = 0, vertices = 0;
+  Finding bad_index;           ///< error: a cell names a vertex id >= vertex count (cell ids)
+  Finding nonfinite_position;  ///< error: NaN or inf coordinate (vertex ids)
+  Finding nonfinite_value;     ///< warning: NaN or inf in the active array (vertex ids)
+  Finding zero_volume;         ///< warning: flat or collapsed cells (cell ids)
+  Finding inverted;            ///< warning: negative orientation (cell ids)
+  float value_min = std::numeric_limits<float>::infinity();   ///< finite values only
+  float value_max = -std::numeric_limits<float>::infinity();
+
+  /// False when rendering must not proceed.
+  bool ok() const { return !bad_index && !nonfinite_position; }
+  bool has_warnings() const { return bool(nonfinite_value) || bool(zero_volume) || bool(inverted); }
+
+  std::string message() const {
+    std::ostringstream s;
+    char const* what = cell_type == CellType::tet ? "tetrahedra" : "hexahedra";
+    s << cells << " " << what << ", " << vertices << " vertices";
+    if (value_min <= value_max) s << ", values [" << value_min << ", " << value_max << "]";
+    auto line = [&](Finding const& f, char const* level, char const* text, char const* id) {
+      if (f) s << "\n  " << level << ": " << f.count << " " << text << " (first " << id << " " << f.first << ")";
+    };
+    line(bad_index, "error", "cells with a vertex index out of range", "cell");
+    line(nonfinite_position, "error", "vertices with a non-finite position", "vertex");
+    line(nonfinite_value, "warning", "vertices with a non-finite value (their cells are invisible)", "vertex");
+    line(zero_volume, "warning", "cells of zero volume (never hit)", "cell");
+    line(inverted, "warning", "inverted cells", "cell");
+    return s.str();
+  }
+  friend std::ostream& operator<<(std::ostream& os, ValidationReport const& r) { return os << r.message(); }
+};
+
+namespace detail {
+
+inline glm::dvec3 dpos(float const* xyz, uint64_t v) {
+  return {double(xyz[3 * v]), double(xyz[3 * v + 1]), double(xyz[3 * v + 2])};
+}
+
+/// Orientation of the corner spanned by three edges, relative to their
+/// lengths: < 0 inverted, ~0 flat. Double precision: float input is exact.
+inline double relative_det(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c) {
+  double const scale = glm::length(a) * glm::length(b) * glm::length(c);
+  return scale > 0 ? glm::dot(glm::cross(a, b), c) / scale : 0.0;
+}
+
+// Flatness threshold on the sine-like relative determinant: below 1e-7 the
+// cell's thickness is under float resolution of its edges.
+inline constexpr double flat_tolerance = 1e-7;
+
+}  // namespace detail
+
+/// Checks indices, positions, the active values and cell shapes. Parallel
+/// (TBB), deterministic; reads the mesh only. For hexahedra, "inverted"
+/// means a negative Jacobian at some corner (VTK corner edge order), "zero
+/// volume" that every corner is flat.
+template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
+  ValidationReport rep;
+  rep.cell_type = CellMesh<N>::cell_type;
+  rep.cells = mesh.cell_count();
+  rep.vertices = mesh.vertex_count();
+  float const* xyz = mesh.positions();
+  float const* val = mesh.values();
+  uint64_t const nv = mesh.vertex_count();
+
+  struct VertexPart {
+    Finding pos, value;
+    float lo = std::numeric_limits<float>::infinity(), hi = -std::numeric_limits<float>::infinity();
+  };
+  auto vpart = tbb::parallel_reduce(
+      tbb::blocked_range<uint64_t>(0, nv, 1 << 14), VertexPart{},
+      [&](tbb::blocked_range<uint64_t> const& r, VertexPart acc) {
+        for (uint64_t v = r.begin(); v < r.end(); ++v) {
+          if (!std::isfinite(xyz[3 * v]) || !std::isfinite(xyz[3 * v + 1]) || !std::isfinite(xyz[3 * v + 2]))
+            acc.pos.add(v);
+          if (val) {
+            if (!std::isfinite(val[v])) acc.value.add(v);
+            else acc.lo = std::min(acc.lo, val[v]), acc.hi = std::max(acc.hi, val[v]);
+          }
+        }
+        return acc;
+      },
+      [](VertexPart a, VertexPart const& b) {
+        a.pos.merge(b.pos);
+        a.value.merge(b.value);
+        a.lo = std::min(a.lo, b.lo);
+        a.hi = std::max(a.hi, b.hi);
+        return a;
+      });
+  rep.nonfinite_position = vpart.pos;
+  rep.nonfinite_value = vpart.value;
+  rep.value_min = vpart.lo;
+  rep.value_max = vpart.hi;
+
+  struct CellPart {
+    Finding index, flat, inverted;
+  };
+  auto cpart = tbb::parallel_reduce(
+      tbb::blocked_range<uint64_t>(0, mesh.cell_count(), 1 << 12), CellPart{},
+      [&](tbb::blocked_range<uint64_t> const& r, CellPart acc) {
+        for (uint64_t c = r.begin(); c < r.end(); ++c) {
+          uint64_t v[N];
+          bool bad = false;
+          for (int k = 0; k < N; ++k) {
+            v[k] = mesh.vertex(c, k);
+            bad = bad || v[k] >= nv;
+          }
+          if (bad) {
+            acc.index.add(c);
+            continue;
+          }
+          glm::dvec3 p[N];
+          for (int k = 0; k < N; ++k) p[k] = detail::dpos(xyz, v[k]);
+          if constexpr (N == 4) {
+            double const d = detail::relative_det(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
+            if (!(std::fabs(d) > detail::flat_tolerance)) acc.flat.add(c);
+            else if (d < 0) acc.inverted.add(c);
+          } else {
+            // Corner k's edges to its three neighbours, ordered so that a
+            // regular VTK hexahedron gives positive determinants.
+            static constexpr int nb[8][3] = {{1, 3, 4}, {2, 0, 5}, {3, 1, 6}, {0, 2, 7},
+                                             {7, 5, 0}, {4, 6, 1}, {5, 7, 2}, {6, 4, 3}};
+            bool all_flat = true, any_negative = false;
+            for (int k = 0; k < 8; ++k) {
+              double const d = detail::relative_det(p[nb[k][0]] - p[k], p[nb[k][1]] - p[k], p[nb[k][2]] - p[k]);
+              if (std::fabs(d) > detail::flat_tolerance) all_flat = false;
+              if (d < -detail::flat_tolerance) any_negative = true;
+            }
+            if (all_flat) acc.flat.add(c);
+            else if (any_negative) acc.inverted.add(c);
+          }
+        }
+        return acc;
+      },
+      [](CellPart a, CellPart const& b) {
+        a.index.merge(b.index);
+        a.flat.merge(b.flat);
+        a.inverted.merge(b.inverted);
+        return a;
+      });
+  rep.bad_index = cpart.index;
+  rep.zero_volume = cpart.flat;
+  rep.inverted = cpart.inverted;
+  return rep;
+}
+
+/// Throws InvalidMesh with the report's message unless `rep.ok()`.
+inline void require_valid(ValidationReport const& rep, char const* what = "mesh") {
+  if (!rep.ok()) throw InvalidMesh(std::string(what) + " failed validation: " + rep.message());
+}
+
+}  // namespace cellray
