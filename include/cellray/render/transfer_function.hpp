@@ -1,0 +1,106 @@
+#pragma once
+// Transfer function for direct volume rendering: piecewise-linear RGB and
+// opacity over the scalar value; opacity per "unit distance" as in
+// VTK/ParaView (a segment of length s gets 1 - (1 - a)^(s / unit)).
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <glm/vec4.hpp>
+
+#include "../error.hpp"
+
+namespace cellray {
+
+struct TransferFunction {
+  /// Strictly increasing control values; rgba[i] applies at values[i]; the
+  /// ends extend flat. RGB and alpha in [0, 1].
+  std::vector<float> values;
+  std::vector<glm::vec4> rgba;
+  /// World-space length over which opacity `a` accumulates to `a`.
+  float unit_distance = 1.f;
+
+  /// Colour and opacity at `v`; NaN values are fully transparent.
+  glm::vec4 operator()(float v) const {
+    if (!(v == v) || values.empty()) return glm::vec4(0.f);
+    if (v <= values.front()) return rgba.front();
+    if (v >= values.back()) return rgba.back();
+    size_t const i = size_t(std::upper_bound(values.begin(), values.end(), v) - values.begin());
+    float const t = (v - values[i - 1]) / (values[i] - values[i - 1]);
+    return rgba[i - 1] + t * (rgba[i] - rgba[i - 1]);
+  }
+
+  /// Largest opacity anywhere on [lo, hi] (piecewise linear: attained at an
+  /// end or a control point). Empty-space skipping drops a subtree when 0.
+  float max_alpha(float lo, float hi) const {
+    if (!(lo <= hi) || values.empty()) return 0.f;
+    float a = std::max((*this)(lo).a, (*this)(hi).a);
+    for (size_t i = 0; i < values.size(); ++i)
+      if (values[i] > lo && values[i] < hi) a = std::max(a, rgba[i].a);
+    return a;
+  }
+
+  /// @throws InvalidArgument naming the problem (sizes, order, ranges).
+  void check() const {
+    if (values.empty() || values.size() != rgba.size())
+      throw InvalidArgument("transfer function needs as many colours as control values, at least one");
+    for (size_t i = 1; i < values.size(); ++i)
+      if (!(values[i] > values[i - 1]))
+        throw InvalidArgument("transfer function control values must increase (at index " + std::to_string(i) + ")");
+    for (auto const& c : rgba)
+      for (int k = 0; k < 4; ++k)
+        if (!(c[k] >= 0.f && c[k] <= 1.f)) throw InvalidArgument("transfer function colours must lie in [0, 1]");
+    if (!(unit_distance > 0.f) || !std::isfinite(unit_distance))
+      throw InvalidArgument("transfer function unit distance must be positive");
+  }
+};
+
+/// Built-in colour maps, spread over [vmin, vmax]; opacity 0 on the lower
+/// two thirds of the range, rising to `max_alpha` at vmax (a third of the
+/// range is visible). Names: "cool-warm", "viridis", "inferno", "grayscale".
+/// @throws InvalidArgument naming the presets for an unknown name.
+inline TransferFunction transfer_function_preset(std::string_view name, float vmin, float vmax,
+                                                 float max_alpha = 0.8f) {
+  struct Stop {
+    float t, r, g, b;
+  };
+  std::vector<Stop> stops;
+  if (name == "cool-warm")  // Moreland's diverging map, as in ParaView
+    stops = {{0.f, .230f, .299f, .754f}, {.25f, .484f, .636f, .980f}, {.5f, .865f, .865f, .865f},
+             {.75f, .968f, .588f, .465f}, {1.f, .706f, .016f, .150f}};
+  else if (name == "viridis")
+    stops = {{0.f, .267f, .005f, .329f}, {.25f, .229f, .322f, .546f}, {.5f, .128f, .567f, .551f},
+             {.75f, .369f, .789f, .383f}, {1.f, .993f, .906f, .144f}};
+  else if (name == "inferno")
+    stops = {{0.f, .001f, .000f, .014f}, {.25f, .341f, .062f, .429f}, {.5f, .735f, .216f, .330f},
+             {.75f, .978f, .557f, .035f}, {1.f, .988f, .998f, .645f}};
+  else if (name == "grayscale")
+    stops = {{0.f, 0.f, 0.f, 0.f}, {1.f, 1.f, 1.f, 1.f}};
+  else
+    throw InvalidArgument("unknown transfer function preset '" + std::string(name) +
+                          "' (presets: cool-warm, viridis, inferno, grayscale)");
+  if (!(vmax > vmin)) vmax = vmin + 1.f;
+  TransferFunction tf;
+  auto alpha = [&](float t) { return t <= 2.f / 3.f ? 0.f : max_alpha * (t - 2.f / 3.f) * 3.f; };
+  std::vector<float> ts;
+  for (auto const& s : stops) ts.push_back(s.t);
+  ts.push_back(2.f / 3.f);
+  std::sort(ts.begin(), ts.end());
+  for (float t : ts) {
+    auto it = std::lower_bound(stops.begin(), stops.end(), t, [](Stop const& s, float x) { return s.t < x; });
+    Stop c = *it;
+    if (it->t != t) {  // interpolate the colour at an inserted opacity knot
+      Stop const& a = *(it - 1);
+      float const u = (t - a.t) / (it->t - a.t);
+      c = {t, a.r + u * (it->r - a.r), a.g + u * (it->g - a.g), a.b + u * (it->b - a.b)};
+    }
+    tf.values.push_back(vmin + t * (vmax - vmin));
+    tf.rgba.emplace_back(c.r, c.g, c.b, alpha(t));
+  }
+  return tf;
+}
+
+}  // namespace cellray
