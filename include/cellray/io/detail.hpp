@@ -1,0 +1,463 @@
+#pragma once
+// Internals shared by the VTK readers: error locations, typed number arrays
+// over bounds-checked bytes, ASCII number parsing, cell building and array
+// conversion. Everything here checks counts against the bytes present before
+// allocating, so a header claiming 10^12 points fails without allocating.
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <utility>
+#include <vector>
+
+#include "../error.hpp"
+#include "grid.hpp"
+
+namespace cellray {
+namespace io {
+
+/// The bytes being parsed and the name errors carry. Lines are counted only
+/// when an error is raised, so parsing never pays for them.
+struct Source {
+  std::string_view bytes;
+  std::string name;
+
+  uint64_t line_at(uint64_t offset) const {
+    offset = std::min<uint64_t>(offset, bytes.size());
+    return 1 + uint64_t(std::count(bytes.begin(), bytes.begin() + std::ptrdiff_t(offset), '\n'));
+  }
+  /// "file:LINE: " for text.
+  std::string at_line(uint64_t offset) const { return name + ":" + std::to_string(line_at(offset)) + ": "; }
+  /// "file: byte N: " for binary data.
+  std::string at_byte(uint64_t offset) const { return name + ": byte " + std::to_string(offset) + ": "; }
+  [[noreturn]] void fail_line(uint64_t offset, std::string const& msg) const { throw IoError(at_line(offset) + msg); }
+  [[noreturn]] void fail_byte(uint64_t offset, std::string const& msg) const { throw IoError(at_byte(offset) + msg); }
+};
+
+/// The whole file in memory. @throws IoError naming the file when it cannot be read.
+inline std::string read_file_bytes(std::string const& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(path + ": cannot open file (" + std::generic_category().message(errno) + ")");
+  in.seekg(0, std::ios::end);
+  std::streamoff const size = in.tellg();
+  if (size < 0) throw IoError(path + ": cannot determine the file size");
+  std::string bytes(size_t(size), '\0');
+  in.seekg(0, std::ios::beg);
+  if (size > 0 && !in.read(bytes.data(), size)) throw IoError(path + ": read failed");
+  return bytes;
+}
+
+inline std::string quoted(std::string_view s) { return "'" + std::string(s.substr(0, 80)) + (s.size() > 80 ? "...'" : "'"); }
+
+inline char ascii_lower(char c) { return (c >= 'A' && c <= 'Z') ? char(c - 'A' + 'a') : c; }
+inline bool iequals(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (ascii_lower(a[i]) != ascii_lower(b[i])) return false;
+  return true;
+}
+inline bool is_space(char c) { return c == ' ' || c == '\n' || c == '\r' || c == '\t' || c == '\f' || c == '\v'; }
+
+/// Element types of VTK arrays. `bit` packs 8 values per byte, most significant first.
+enum class NumType : uint8_t { bit, i8, u8, i16, u16, i32, u32, i64, u64, f32, f64 };
+
+inline uint64_t num_size(NumType t) {
+  switch (t) {
+    case NumType::bit: return 0;  // see bytes_for()
+    case NumType::i8: case NumType::u8: return 1;
+    case NumType::i16: case NumType::u16: return 2;
+    case NumType::i32: case NumType::u32: case NumType::f32: return 4;
+    default: return 8;
+  }
+}
+inline bool is_integer(NumType t) { return t != NumType::f32 && t != NumType::f64; }
+inline char const* num_name(NumType t) {
+  constexpr char const* names[] = {"Bit", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64", "Float32", "Float64"};
+  return names[int(t)];
+}
+/// Bytes `count` values of type `t` take.
+inline uint64_t bytes_for(NumType t, uint64_t count) { return t == NumType::bit ? (count + 7) / 8 : count * num_size(t); }
+
+/// Largest count whose byte size cannot overflow uint64 arithmetic anywhere below.
+constexpr uint64_t max_count = uint64_t(1) << 56;
+
+/// `a * b`, or false when it exceeds `max_count`.
+inline bool checked_mul(uint64_t a, uint64_t b, uint64_t& out) {
+  if (a != 0 && b > max_count / a) return false;
+  out = a * b;
+  return out <= max_count;
+}
+
+template <class T> T load_value(unsigned char const* p, bool swap) {
+  unsigned char b[sizeof(T)];
+  std::memcpy(b, p, sizeof(T));
+  if (swap) std::reverse(b, b + sizeof(T));
+  T v;
+  std::memcpy(&v, b, sizeof(T));
+  return v;
+}
+
+/// `count` numbers of one type over bytes already checked to be present,
+/// either in the file buffer (zero-copy) or owned. Move-only so `data` never
+/// dangles into a copied vector.
+struct NumArray {
+  NumType type = NumType::f64;
+  bool swap = false;  ///< bytes are in the other byte order than the host's
+  uint64_t count = 0;
+  unsigned char const* data = nullptr;
+  std::vector<unsigned char> owned;
+
+  NumArray() = default;
+  NumArray(NumArray&&) = default;
+  NumArray& operator=(NumArray&&) = default;
+  NumArray(NumArray const&) = delete;
+  NumArray& operator=(NumArray const&) = delete;
+
+  /// Values parsed from text: doubles (or int64 when `integers`), native order.
+  template <class T> static NumArray owning(std::vector<T> const& v) {
+    static_assert(std::is_same_v<T, double> || std::is_same_v<T, int64_t>);
+    NumArray a;
+    a.type = std::is_same_v<T, double> ? NumType::f64 : NumType::i64;
+    a.count = v.size();
+    a.owned.resize(v.size() * sizeof(T));
+    if (!v.empty()) std::memcpy(a.owned.data(), v.data(), a.owned.size());
+    a.data = a.owned.data();
+    return a;
+  }
+  /// A view over `bytes_for(type, count)` bytes at `p` that outlive it.
+  static NumArray viewing(NumType type, uint64_t count, unsigned char const* p, bool swap) {
+    NumArray a;
+    a.type = type;
+    a.count = count;
+    a.data = p;
+    a.swap = swap;
+    return a;
+  }
+  /// Takes ownership of decoded bytes.
+  static NumArray owning_bytes(NumType type, uint64_t count, std::vector<unsigned char> bytes, bool swap) {
+    NumArray a;
+    a.type = type;
+    a.count = count;
+    a.owned = std::move(bytes);
+    a.data = a.owned.data();
+    a.swap = swap;
+    return a;
+  }
+
+  double as_double(uint64_t i) const {
+    switch (type) {
+      case NumType::bit: return double((data[i / 8] >> (7 - i % 8)) & 1);
+      case NumType::i8: return double(int8_t(data[i]));
+      case NumType::u8: return double(data[i]);
+      case NumType::i16: return double(load_value<int16_t>(data + 2 * i, swap));
+      case NumType::u16: return double(load_value<uint16_t>(data + 2 * i, swap));
+      case NumType::i32: return double(load_value<int32_t>(data + 4 * i, swap));
+      case NumType::u32: return double(load_value<uint32_t>(data + 4 * i, swap));
+      case NumType::i64: return double(load_value<int64_t>(data + 8 * i, swap));
+      case NumType::u64: return double(load_value<uint64_t>(data + 8 * i, swap));
+      case NumType::f32: return double(load_value<float>(data + 4 * i, swap));
+      case NumType::f64: return load_value<double>(data + 8 * i, swap);
+    }
+    return 0.0;
+  }
+  /// Integer value (only for integer types); uint64 values beyond int64 map to
+  /// int64 max so that range checks reject them.
+  int64_t as_int(uint64_t i) const {
+    switch (type) {
+      case NumType::bit: return int64_t((data[i / 8] >> (7 - i % 8)) & 1);
+      case NumType::i8: return int8_t(data[i]);
+      case NumType::u8: return data[i];
+      case NumType::i16: return load_value<int16_t>(data + 2 * i, swap);
+      case NumType::u16: return load_value<uint16_t>(data + 2 * i, swap);
+      case NumType::i32: return load_value<int32_t>(data + 4 * i, swap);
+      case NumType::u32: return load_value<uint32_t>(data + 4 * i, swap);
+      case NumType::i64: return load_value<int64_t>(data + 8 * i, swap);
+      case NumType::u64: {
+        uint64_t const v = load_value<uint64_t>(data + 8 * i, swap);
+        return v > uint64_t(std::numeric_limits<int64_t>::max()) ? std::numeric_limits<int64_t>::max() : int64_t(v);
+      }
+      default: return 0;
+    }
+  }
+};
+
+/// double to float without undefined behaviour: out-of-range values become +-inf.
+inline float to_float(double d) {
+  constexpr double fmax = double(std::numeric_limits<float>::max());
+  if (d > fmax) return std::numeric_limits<float>::infinity();
+  if (d < -fmax) return -std::numeric_limits<float>::infinity();
+  return float(d);
+}
+
+/// Parses one number from [p, end); the number must end at whitespace or
+/// `end`. Accepts a leading '+', "nan", "inf" (from_chars).
+inline bool parse_number(char const*& p, char const* end, double& out) {
+  char const* q = p;
+  if (q < end && *q == '+') ++q;
+  auto r = std::from_chars(q, end, out);
+  if (r.ec == std::errc::result_out_of_range) {
+    // Denormal or overflowing text: from_chars leaves `out` untouched; take
+    // the limit VTK's strtod would give.
+    out = (q < end && *q == '-') ? -HUGE_VAL : HUGE_VAL;
+    for (char const* s = q; s < r.ptr; ++s)
+      if (*s == 'e' || *s == 'E') {
+        if (s + 1 < r.ptr && s[1] == '-') out = 0.0;
+        break;
+      }
+  } else if (r.ec != std::errc()) {
+    return false;
+  }
+  if (r.ptr < end && !is_space(*r.ptr)) return false;
+  p = r.ptr;
+  return true;
+}
+inline bool parse_number(char const*& p, char const* end, int64_t& out) {
+  char const* q = p;
+  if (q < end && *q == '+') ++q;
+  auto r = std::from_chars(q, end, out);
+  if (r.ec != std::errc()) return false;
+  if (r.ptr < end && !is_space(*r.ptr)) return false;
+  p = r.ptr;
+  return true;
+}
+/// A whole token as a non-negative count (at most `max_count`).
+inline bool parse_count(std::string_view tok, uint64_t& out) {
+  if (tok.empty()) return false;
+  auto r = std::from_chars(tok.data(), tok.data() + tok.size(), out);
+  return r.ec == std::errc() && r.ptr == tok.data() + tok.size() && out <= max_count;
+}
+inline bool parse_int_token(std::string_view tok, int64_t& out) {
+  char const* p = tok.data();
+  return parse_number(p, tok.data() + tok.size(), out) && p == tok.data() + tok.size();
+}
+
+/// Reads `count` whitespace-separated numbers from `text` starting at `pos`
+/// (advanced past them). `T` is double for data, int64_t for ids. Checks the
+/// count against the text left before allocating. Errors name the line.
+template <class T>
+std::vector<T> parse_ascii_numbers(Source const& src, uint64_t& pos, uint64_t count, std::string const& what,
+                                   uint64_t text_end = std::numeric_limits<uint64_t>::max()) {
+  char const* const base = src.bytes.data();
+  uint64_t const end_off = std::min<uint64_t>(text_end, src.bytes.size());
+  // Each number needs at least one character and one separator.
+  if (count > (end_off - std::min(pos, end_off) + 1) / 2)
+    src.fail_line(pos, what + ": " + std::to_string(count) + " values declared but only " +
+                           std::to_string(end_off - std::min(pos, end_off)) + " bytes of text are left");
+  std::vector<T> out(count);
+  char const* p = base + pos;
+  char const* const end = base + end_off;
+  for (uint64_t i = 0; i < count; ++i) {
+    while (p < end && is_space(*p)) ++p;
+    if (p == end)
+      src.fail_line(uint64_t(p - base), what + ": the data ends after " + std::to_string(i) + " of " +
+                                            std::to_string(count) + " values");
+    char const* const start = p;
+    if (!parse_number(p, end, out[i])) {
+      char const* e = start;
+      while (e < end && !is_space(*e) && e - start < 40) ++e;
+      src.fail_line(uint64_t(start - base), what + ": value " + std::to_string(i) + " is " +
+                                                quoted(std::string_view(start, size_t(e - start))) + ", not " +
+                                                (std::is_same_v<T, double> ? "a number" : "an integer"));
+    }
+  }
+  pos = uint64_t(p - base);
+  return out;
+}
+
+/// How a VTK cell type is read.
+enum class CellKind : uint8_t { tet, hex, voxel, unsupported, unknown };
+
+/// Kind of a VTK cell type id and the vertex count it needs (`exact`) or at
+/// least needs (`!exact`, Lagrange/Bezier of any order).
+inline CellKind classify_cell(int64_t type, uint64_t& nodes, bool& exact) {
+  exact = true;
+  switch (type) {
+    case 10: nodes = 4; return CellKind::tet;
+    case 24: nodes = 10; return CellKind::tet;
+    case 71: case 78: nodes = 4; exact = false; return CellKind::tet;
+    case 12: nodes = 8; return CellKind::hex;
+    case 11: nodes = 8; return CellKind::voxel;
+    case 25: nodes = 20; return CellKind::hex;
+    case 29: nodes = 27; return CellKind::hex;
+    case 33: nodes = 24; return CellKind::hex;
+    case 72: case 79: nodes = 8; exact = false; return CellKind::hex;
+    default:
+      nodes = 0;
+      if (type < 0 || type > 81) return CellKind::unknown;
+      return std::string_view(vtk_cell_type_name(int(type))) == "unknown" ? CellKind::unknown : CellKind::unsupported;
+  }
+}
+
+/// Per original cell: 0 = kept tet, 1 = kept hex, 2 = skipped (for splitting cell arrays).
+using CellKinds = std::vector<uint8_t>;
+
+/// Where errors about cells point: `conn(k)` for connectivity entry k,
+/// `type(c)` for the type of cell c; each returns a "file:...: " prefix.
+struct CellLocator {
+  std::function<std::string(uint64_t)> conn;
+  std::function<std::string(uint64_t)> type;
+};
+
+/// Builds `grid.tets` / `grid.hexes` from VTK cells: cell c has type
+/// `types.as_int(c)` and vertex ids `conn[span(c).first, span(c).second)`,
+/// ranges already checked to lie within `conn`. Checks types, vertex counts
+/// per type and every kept vertex id against `npoints`; fills the cell counts
+/// of the report. Returns the kind of each cell.
+template <class SpanFn>
+CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, SpanFn span, uint64_t npoints,
+                      ReadOptions const& opts, UnstructuredGrid& grid, CellLocator const& where) {
+  if (!is_integer(types.type)) throw IoError(where.type(0) + "cell types are stored as " + num_name(types.type) + ", not integers");
+  if (!is_integer(conn.type))
+    throw IoError(where.conn(0) + "cell connectivity is stored as " + num_name(conn.type) + ", not integers");
+  uint64_t per_type[82] = {};
+  uint64_t first_unsupported[82];
+  uint64_t ntets = 0, nhexes = 0, nunsupported = 0;
+  CellKinds kinds(ncells);
+  for (uint64_t c = 0; c < ncells; ++c) {
+    int64_t const t = types.as_int(c);
+    uint64_t nodes = 0;
+    bool exact = true;
+    CellKind const kind = classify_cell(t, nodes, exact);
+    if (kind == CellKind::unknown)
+      throw IoError(where.type(c) + "cell " + std::to_string(c) + " has unknown VTK cell type " + std::to_string(t));
+    auto const [b, e] = span(c);
+    uint64_t const have = e - b;
+    if (kind != CellKind::unsupported && (exact ? have != nodes : have < nodes))
+      throw IoError(where.conn(b) + "cell " + std::to_string(c) + " (" + vtk_cell_type_name(int(t)) + ") has " +
+                    std::to_string(have) + " vertex ids, needs " + (exact ? "" : "at least ") + std::to_string(nodes));
+    if (per_type[t]++ == 0) first_unsupported[t] = c;
+    if (kind == CellKind::tet) {
+      ++ntets;
+      kinds[c] = 0;
+    } else if (kind == CellKind::hex || kind == CellKind::voxel) {
+      ++nhexes;
+      kinds[c] = 1;
+    } else {
+      ++nunsupported;
+      kinds[c] = 2;
+    }
+  }
+  for (int t = 0; t < 82; ++t)
+    if (per_type[t]) grid.report.cells_read[t] = per_type[t];
+  if (nunsupported && !opts.skip_unsupported_cells) {
+    std::string list;
+    uint64_t first = ncells;
+    for (int t = 0; t < 82; ++t) {
+      uint64_t nodes;
+      bool exact;
+      if (per_type[t] && classify_cell(t, nodes, exact) == CellKind::unsupported) {
+        list += (list.empty() ? "" : ", ") + std::to_string(per_type[t]) + " " + vtk_cell_type_name(t) +
+                " (VTK type " + std::to_string(t) + ")";
+        first = std::min(first, first_unsupported[t]);
+      }
+    }
+    throw IoError(where.type(first) + "unsupported cells: " + list + "; cellray reads tetrahedra and hexahedra only " +
+                  "(set ReadOptions::skip_unsupported_cells to skip them)");
+  }
+  for (int t = 0; t < 82; ++t) {
+    uint64_t nodes;
+    bool exact;
+    CellKind const k = classify_cell(t, nodes, exact);
+    if (!per_type[t]) continue;
+    if (k == CellKind::unsupported) grid.report.cells_skipped[t] = per_type[t];
+    if (t != 10 && t != 12 && (k == CellKind::tet || k == CellKind::hex || k == CellKind::voxel))
+      grid.report.reduced_to_linear += per_type[t];
+  }
+  // Counts were checked against the connectivity present (each kept cell has
+  // >= 4 ids there), so these allocations are bounded by the file size.
+  grid.tets.resize(4 * ntets);
+  grid.hexes.resize(8 * nhexes);
+  uint64_t ti = 0, hi = 0;
+  auto vertex_id = [&](uint64_t k, uint64_t c) -> uint32_t {
+    int64_t const v = conn.as_int(k);
+    if (v < 0 || uint64_t(v) >= npoints)
+      throw IoError(where.conn(k) + "cell " + std::to_string(c) + " uses vertex id " + std::to_string(v) +
+                    ", outside [0, " + std::to_string(npoints) + ")");
+    return uint32_t(v);
+  };
+  for (uint64_t c = 0; c < ncells; ++c) {
+    if (kinds[c] == 2) continue;
+    uint64_t const b = span(c).first;
+    if (kinds[c] == 0) {
+      for (int k = 0; k < 4; ++k) grid.tets[ti++] = vertex_id(b + uint64_t(k), c);
+    } else {
+      // A voxel orders its corners like a pixel grid (0 1 3 2 / 4 5 7 6 as a hexahedron).
+      static constexpr int voxel_order[8] = {0, 1, 3, 2, 4, 5, 7, 6};
+      bool const voxel = types.as_int(c) == 11;
+      for (int k = 0; k < 8; ++k) grid.hexes[hi++] = vertex_id(b + uint64_t(voxel ? voxel_order[k] : k), c);
+    }
+  }
+  return kinds;
+}
+
+/// Euclidean magnitude of tuple i of `a` (the value itself with one component).
+inline float tuple_value(NumArray const& a, uint64_t i, int ncomp) {
+  if (ncomp == 1) return to_float(a.as_double(i));
+  double s = 0.0;
+  for (int k = 0; k < ncomp; ++k) {
+    double const v = a.as_double(i * uint64_t(ncomp) + uint64_t(k));
+    s += v * v;
+  }
+  return to_float(std::sqrt(s));
+}
+
+inline std::string describe_array(char const* where, std::string const& name, int ncomp) {
+  std::string s = std::string(where) + " '" + name + "'";
+  if (ncomp > 1) s += " (" + std::to_string(ncomp) + " components, magnitude)";
+  return s;
+}
+
+/// Adds a point array of `tuples` = vertex count tuples (checked by the caller).
+inline void add_point_array(UnstructuredGrid& grid, std::string name, NumArray const& a, int ncomp) {
+  if (grid.point_array(name)) {
+    grid.report.arrays_ignored.push_back("point '" + name + "' (a second point array with that name)");
+    return;
+  }
+  PointArray p;
+  p.name = std::move(name);
+  p.components = ncomp;
+  uint64_t const n = grid.vertex_count();
+  p.values.resize(n);
+  for (uint64_t i = 0; i < n; ++i) p.values[i] = tuple_value(a, i, ncomp);
+  grid.report.arrays_read.push_back(describe_array("point", p.name, ncomp));
+  grid.point_arrays.push_back(std::move(p));
+}
+
+/// Adds a cell array with one tuple per file cell, split by `kinds`.
+inline void add_cell_array(UnstructuredGrid& grid, std::string name, NumArray const& a, int ncomp, CellKinds const& kinds) {
+  if (grid.cell_array(name)) {
+    grid.report.arrays_ignored.push_back("cell '" + name + "' (a second cell array with that name)");
+    return;
+  }
+  CellArray c;
+  c.name = std::move(name);
+  c.components = ncomp;
+  c.tet_values.reserve(grid.tet_count());
+  c.hex_values.reserve(grid.hex_count());
+  for (uint64_t i = 0; i < kinds.size(); ++i) {
+    if (kinds[i] == 0) c.tet_values.push_back(tuple_value(a, i, ncomp));
+    else if (kinds[i] == 1) c.hex_values.push_back(tuple_value(a, i, ncomp));
+  }
+  grid.report.arrays_read.push_back(describe_array("cell", c.name, ncomp));
+  grid.cell_arrays.push_back(std::move(c));
+}
+
+/// Positions from a 3-component array of `npoints` tuples.
+inline void set_positions(UnstructuredGrid& grid, NumArray const& a, uint64_t npoints) {
+  grid.xyz.resize(3 * npoints);
+  for (uint64_t i = 0; i < 3 * npoints; ++i) grid.xyz[i] = to_float(a.as_double(i));
+}
+
+/// Vertex ids are 32-bit (UnstructuredGrid); a larger point count is refused.
+inline bool point_count_fits(uint64_t npoints) { return npoints <= uint64_t(std::numeric_limits<uint32_t>::max()); }
+
+}  // namespace io
+}  // namespace cellray

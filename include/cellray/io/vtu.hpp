@@ -1,0 +1,488 @@
+#pragma once
+// VTK XML unstructured grid reader (".vtu"): DataArrays in format "ascii",
+// "binary" (base64) or "appended" (encoding "raw" or "base64"), UInt32 or
+// UInt64 headers, optional vtkZLibDataCompressor blocks, either byte order.
+// The XML is parsed with pugixml; raw appended data is never handed to the
+// XML parser (it is not XML): the document is cut at the '_' marker.
+// Needs pugixml and zlib at link time (CMake: pugixml::pugixml ZLIB::ZLIB).
+
+#include <cstdint>
+#include <set>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include <pugixml.hpp>
+#include <zlib.h>
+
+#include "detail.hpp"
+#include "grid.hpp"
+
+namespace cellray {
+namespace io {
+
+/// 0..63 for a base64 symbol, 64 for '=', 65 for whitespace, 255 otherwise.
+inline unsigned char base64_class(unsigned char c) {
+  if (c >= 'A' && c <= 'Z') return c - 'A';
+  if (c >= 'a' && c <= 'z') return c - 'a' + 26;
+  if (c >= '0' && c <= '9') return c - '0' + 52;
+  if (c == '+') return 62;
+  if (c == '/') return 63;
+  if (c == '=') return 64;
+  if (is_space(char(c))) return 65;
+  return 255;
+}
+
+/// Bytes of a DataArray payload: raw bytes of the file, or base64 text in it.
+/// The base64 decoder accepts several padded streams back to back, because
+/// VTK encodes a compressed array's header and its blocks separately.
+/// Every read is bounds-checked; errors name the file byte offset.
+class ByteStream {
+ public:
+  ByteStream(Source const& src, uint64_t begin, uint64_t end, bool base64, std::string what)
+      : src_(src), pos_(begin), end_(end), base64_(base64), what_(std::move(what)) {}
+
+  /// Upper bound of the bytes left (exact for raw data).
+  uint64_t max_left() const { return base64_ ? (end_ - pos_) / 4 * 3 + uint64_t(npend_ - ipend_) : end_ - pos_; }
+  uint64_t offset() const { return pos_; }
+  bool base64() const { return base64_; }
+
+  /// The next `n` raw bytes, in place (raw data only).
+  unsigned char const* raw(uint64_t n) {
+    if (n > end_ - pos_) truncated(n);
+    auto const* p = reinterpret_cast<unsigned char const*>(src_.bytes.data()) + pos_;
+    pos_ += n;
+    return p;
+  }
+  void read(unsigned char* out, uint64_t n) {
+    if (!base64_) {
+      if (n) std::memcpy(out, raw(n), n);
+      return;
+    }
+    if (n > max_left()) truncated(n);
+    while (n > 0) {
+      if (ipend_ < npend_) {
+        *out++ = pend_[ipend_++];
+        --n;
+        continue;
+      }
+      quantum();
+    }
+  }
+
+ private:
+  [[noreturn]] void truncated(uint64_t n) const {
+    src_.fail_byte(pos_, what_ + ": needs " + std::to_string(n) + " more bytes but the data ends (at most " +
+                             std::to_string(max_left()) + " left)");
+  }
+  /// Decodes the next 4 symbols into pend_.
+  void quantum() {
+    unsigned char v[4];
+    int n = 0;
+    uint64_t const start = pos_;
+    while (n < 4) {
+      if (pos_ >= end_) src_.fail_byte(start, what_ + ": base64 data ends in the middle of a 4-character group");
+      unsigned char const c = static_cast<unsigned char>(src_.bytes[pos_]);
+      unsigned char const k = base64_class(c);
+      if (k == 255) {
+        std::string shown = (c >= 32 && c < 127) ? std::string("'") + char(c) + "'" : "byte " + std::to_string(int(c));
+        src_.fail_byte(pos_, what_ + ": invalid base64 character " + shown);
+      }
+      ++pos_;
+      if (k == 65) continue;
+      v[n++] = k;
+    }
+    // xxxx -> 3 bytes, xxx= -> 2, xx== -> 1; '=' anywhere else is invalid.
+    int const pads = (v[3] == 64) + (v[2] == 64);
+    if (v[0] == 64 || v[1] == 64 || (v[2] == 64 && v[3] != 64))
+      src_.fail_byte(start, what_ + ": invalid base64 padding");
+    uint32_t const bits = (uint32_t(v[0]) << 18) | (uint32_t(v[1]) << 12) | (uint32_t(pads >= 2 ? 0 : v[2]) << 6) |
+                          uint32_t(pads >= 1 ? 0 : v[3]);
+    pend_[0] = static_cast<unsigned char>(bits >> 16);
+    pend_[1] = static_cast<unsigned char>(bits >> 8);
+    pend_[2] = static_cast<unsigned char>(bits);
+    npend_ = 3 - pads;
+    ipend_ = 0;
+  }
+
+  Source const& src_;
+  uint64_t pos_, end_;
+  bool base64_;
+  std::string what_;
+  unsigned char pend_[3] = {0, 0, 0};
+  int npend_ = 0, ipend_ = 0;
+};
+
+/// VTK XML type names to element types; false for unknown names.
+inline bool xml_type(std::string_view name, NumType& t) {
+  struct Name {
+    char const* name;
+    NumType type;
+  };
+  static constexpr Name names[] = {{"Int8", NumType::i8},     {"UInt8", NumType::u8},     {"Int16", NumType::i16},
+                                   {"UInt16", NumType::u16},  {"Int32", NumType::i32},    {"UInt32", NumType::u32},
+                                   {"Int64", NumType::i64},   {"UInt64", NumType::u64},   {"Float32", NumType::f32},
+                                   {"Float64", NumType::f64}, {"Char", NumType::i8},      {"UChar", NumType::u8}};
+  for (auto const& n : names)
+    if (name == n.name) {
+      t = n.type;
+      return true;
+    }
+  return false;
+}
+
+/// deflate cannot expand data by more than 1032:1; a header claiming more
+/// is corrupt (and must not make us allocate).
+constexpr uint64_t zlib_max_ratio = 1032;
+
+/// Parser state for one .vtu document. Internal: use read_vtu*().
+class VtuParser {
+ public:
+  VtuParser(Source const& src, ReadOptions const& opts) : src_(src), opts_(opts) {}
+
+  UnstructuredGrid parse() {
+    load_xml();
+    pugi::xml_node const root = doc_.child("VTKFile");
+    if (!root) src_.fail_line(0, "not a VTK XML file (no VTKFile element)");
+    std::string_view const type = root.attribute("type").value();
+    if (type != "UnstructuredGrid")
+      src_.fail_line(offset(root), "VTK XML type " + quoted(type) + " is not supported (cellray reads UnstructuredGrid)");
+    std::string_view const order = root.attribute("byte_order").value();
+    if (order == "BigEndian") big_endian_ = true;
+    else if (!order.empty() && order != "LittleEndian") src_.fail_line(offset(root), "unknown byte_order " + quoted(order));
+    uint16_t const one = 1;
+    unsigned char b0;
+    std::memcpy(&b0, &one, 1);
+    swap_ = big_endian_ == (b0 == 1);
+    std::string_view const header = root.attribute("header_type").value();
+    if (header == "UInt64") header_size_ = 8;
+    else if (!header.empty() && header != "UInt32")
+      src_.fail_line(offset(root), "unknown header_type " + quoted(header) + " (UInt32 or UInt64)");
+    std::string_view const compressor = root.attribute("compressor").value();
+    if (compressor == "vtkZLibDataCompressor") compressed_ = true;
+    else if (!compressor.empty())
+      src_.fail_line(offset(root), "compressor " + quoted(compressor) + " is not supported (only vtkZLibDataCompressor)");
+    if (appended_) {
+      pugi::xml_node const app = root.child("AppendedData");
+      std::string_view const enc = app.attribute("encoding").value();
+      if (enc == "base64") appended_base64_ = true;
+      else if (enc != "raw") src_.fail_line(offset(app), "AppendedData encoding " + quoted(enc) + " (raw or base64 expected)");
+    }
+
+    pugi::xml_node const ug = root.child("UnstructuredGrid");
+    if (!ug) src_.fail_line(offset(root), "no UnstructuredGrid element");
+    pugi::xml_node piece;
+    int pieces = 0;
+    for (pugi::xml_node p : ug.children("Piece")) {
+      if (!pieces) piece = p;
+      ++pieces;
+    }
+    if (pieces == 0) src_.fail_line(offset(ug), "no Piece element");
+    if (pieces > 1) src_.fail_line(offset(ug), std::to_string(pieces) + " pieces: cellray reads single-piece files only");
+
+    UnstructuredGrid grid;
+    grid.report.file = src_.name;
+    uint64_t const np = count_attr(piece, "NumberOfPoints");
+    uint64_t const nc = count_attr(piece, "NumberOfCells");
+    if (!point_count_fits(np))
+      src_.fail_line(offset(piece), std::to_string(np) + " points: cellray uses 32-bit vertex ids (at most 4294967295 points)");
+
+    pugi::xml_node const pts = piece.child("Points").child("DataArray");
+    if (!pts) src_.fail_line(offset(piece), "no Points/DataArray element");
+    if (components(pts) != 3) src_.fail_line(offset(pts), "Points must have NumberOfComponents=\"3\"");
+    uint64_t n3 = 0;
+    checked_mul(np, 3, n3);
+    NumArray const xyz = decode(pts, n3, "Points");
+
+    pugi::xml_node const cells = piece.child("Cells");
+    if (!cells) src_.fail_line(offset(piece), "no Cells element");
+    pugi::xml_node const conn_el = named(cells, "connectivity"), off_el = named(cells, "offsets"), type_el = named(cells, "types");
+    NumArray const offsets = decode(off_el, nc, "offsets");
+    if (!is_integer(offsets.type)) src_.fail_line(offset(off_el), "offsets must be integers");
+    // VTU offsets are end offsets: cell c uses [offsets[c-1], offsets[c]).
+    int64_t prev = 0;
+    for (uint64_t c = 0; c < nc; ++c) {
+      int64_t const o = offsets.as_int(c);
+      if (o < prev)
+        src_.fail_line(offset(off_el), "offsets: cell " + std::to_string(c) + " ends at " + std::to_string(o) +
+                                           ", before its start " + std::to_string(prev));
+      prev = o;
+    }
+    NumArray const conn = decode(conn_el, uint64_t(prev), "connectivity");
+    NumArray const types = decode(type_el, nc, "types");
+    CellLocator where;
+    where.conn = [&](uint64_t) { return src_.at_line(offset(conn_el)) + "connectivity: "; };
+    where.type = [&](uint64_t) { return src_.at_line(offset(type_el)) + "types: "; };
+    CellKinds const kinds = build_cells(
+        nc, types, conn,
+        [&offsets](uint64_t c) {
+          return std::pair<uint64_t, uint64_t>(c ? uint64_t(offsets.as_int(c - 1)) : 0, uint64_t(offsets.as_int(c)));
+        },
+        np, opts_, grid, where);
+    set_positions(grid, xyz, np);
+
+    for (pugi::xml_node a : piece.child("PointData").children()) array(grid, a, np, false, kinds);
+    for (pugi::xml_node a : piece.child("CellData").children()) array(grid, a, nc, true, kinds);
+    for (pugi::xml_node a : ug.child("FieldData").children())
+      grid.report.arrays_ignored.push_back("field " + quoted(a.attribute("Name").value()) + " (dataset field data)");
+
+    std::string enc;
+    for (auto const& f : formats_) enc += (enc.empty() ? "" : ", ") + f;
+    grid.report.format = "VTK XML " + std::string(root.attribute("version").value()) + " UnstructuredGrid (" + enc +
+                         (header_size_ == 8 ? ", UInt64 headers" : ", UInt32 headers") + (compressed_ ? ", zlib" : "") +
+                         (big_endian_ ? ", big-endian" : "") + ")";
+    return grid;
+  }
+
+ private:
+  Source const& src_;
+  ReadOptions opts_;
+  pugi::xml_document doc_;
+  std::string xml_;
+  bool appended_ = false, appended_base64_ = false, compressed_ = false, big_endian_ = false, swap_ = false;
+  uint64_t appended_base_ = 0, appended_end_ = 0, header_size_ = 4;
+  std::set<std::string> formats_;
+
+  uint64_t offset(pugi::xml_node n) const {
+    ptrdiff_t const o = n.offset_debug();
+    return o < 0 ? 0 : uint64_t(o);
+  }
+
+  /// Raw appended data is binary, not XML: parse only the document up to
+  /// the '_' marker, closed by hand. Offsets stay those of the file.
+  void load_xml() {
+    std::string_view const b = src_.bytes;
+    size_t const tag = b.find("<AppendedData");
+    std::string_view xml = b;
+    if (tag != std::string_view::npos) {
+      size_t const gt = b.find('>', tag);
+      if (gt == std::string_view::npos) src_.fail_line(tag, "unterminated AppendedData tag");
+      if (b[gt - 1] != '/') {
+        size_t u = gt + 1;
+        while (u < b.size() && is_space(b[u])) ++u;
+        if (u >= b.size() || b[u] != '_') src_.fail_line(u, "AppendedData must start with '_'");
+        appended_ = true;
+        appended_base_ = u + 1;
+        appended_end_ = b.size();
+        xml_.reserve(gt + 40);
+        xml_.assign(b.substr(0, gt + 1));
+        xml_ += "</AppendedData></VTKFile>";
+        xml = xml_;
+      }
+    }
+    pugi::xml_parse_result const r = doc_.load_buffer(xml.data(), xml.size(), pugi::parse_default, pugi::encoding_utf8);
+    if (!r) src_.fail_line(uint64_t(std::max<ptrdiff_t>(r.offset, 0)), std::string("XML error: ") + r.description());
+  }
+
+  uint64_t count_attr(pugi::xml_node n, char const* name) const {
+    pugi::xml_attribute const a = n.attribute(name);
+    if (!a) src_.fail_line(offset(n), std::string("missing ") + name);
+    std::string_view v = a.value();
+    while (!v.empty() && is_space(v.front())) v.remove_prefix(1);
+    while (!v.empty() && is_space(v.back())) v.remove_suffix(1);
+    uint64_t c = 0;
+    if (!parse_count(v, c)) src_.fail_line(offset(n), std::string(name) + " is " + quoted(a.value()) + ", not a count");
+    return c;
+  }
+  int components(pugi::xml_node n) const {
+    if (!n.attribute("NumberOfComponents")) return 1;
+    uint64_t const c = count_attr(n, "NumberOfComponents");
+    if (c < 1 || c > 1024) src_.fail_line(offset(n), "NumberOfComponents must be 1 to 1024");
+    return int(c);
+  }
+  pugi::xml_node named(pugi::xml_node cells, char const* name) const {
+    for (pugi::xml_node a : cells.children("DataArray"))
+      if (std::string_view(a.attribute("Name").value()) == name) return a;
+    src_.fail_line(offset(cells), std::string("Cells has no DataArray named '") + name + "'");
+  }
+
+  /// The [begin, end) file range of an element's inline text (first PCDATA).
+  std::pair<uint64_t, uint64_t> inline_text(pugi::xml_node el) const {
+    for (pugi::xml_node c : el.children()) {
+      if (c.type() == pugi::node_cdata) src_.fail_line(offset(c), "CDATA array data is not supported");
+      if (c.type() != pugi::node_pcdata) continue;
+      uint64_t const b = offset(c);
+      size_t e = src_.bytes.find('<', b);
+      return {b, e == std::string_view::npos ? src_.bytes.size() : e};
+    }
+    return {0, 0};
+  }
+
+  uint64_t header_int(ByteStream& s) {
+    unsigned char b[8];
+    s.read(b, header_size_);
+    uint64_t v = 0;
+    for (uint64_t i = 0; i < header_size_; ++i) {
+      uint64_t const k = big_endian_ ? i : header_size_ - 1 - i;
+      v = (v << 8) | b[k];
+    }
+    return v;
+  }
+
+  static constexpr uint64_t unknown = ~uint64_t(0);
+
+  /// The values of DataArray `el`: `expected` values, or as many as the data
+  /// hold when `expected` is `unknown`.
+  NumArray decode(pugi::xml_node el, uint64_t expected, std::string const& what) {
+    NumType t{};
+    std::string_view const tname = el.attribute("type").value();
+    if (!xml_type(tname, t)) src_.fail_line(offset(el), what + ": unknown DataArray type " + quoted(tname));
+    std::string_view const format = el.attribute("format").value();
+    if (format == "ascii" || format.empty()) {
+      formats_.insert("ascii");
+      auto [b, e] = inline_text(el);
+      uint64_t n = expected;
+      if (n == unknown) n = count_tokens(b, e);
+      uint64_t p = b;
+      NumArray a = is_integer(t) ? NumArray::owning(parse_ascii_numbers<int64_t>(src_, p, n, what, e))
+                                 : NumArray::owning(parse_ascii_numbers<double>(src_, p, n, what, e));
+      while (p < e && is_space(src_.bytes[p])) ++p;
+      if (p < e) src_.fail_line(p, what + ": more values than the " + std::to_string(n) + " expected");
+      return a;
+    }
+    if (format == "binary") {
+      formats_.insert("binary base64");
+      auto [b, e] = inline_text(el);
+      ByteStream s(src_, b, e, true, what);
+      return payload(s, t, expected, what);
+    }
+    if (format == "appended") {
+      if (!appended_) src_.fail_line(offset(el), what + ": format=\"appended\" but the file has no AppendedData");
+      formats_.insert(appended_base64_ ? "appended base64" : "appended raw");
+      pugi::xml_attribute const oa = el.attribute("offset");
+      uint64_t off = 0;
+      if (!oa || !parse_count(oa.value(), off) || off > appended_end_ - appended_base_)
+        src_.fail_line(offset(el), what + ": missing or out-of-range offset " + quoted(oa.value()));
+      ByteStream s(src_, appended_base_ + off, appended_end_, appended_base64_, what);
+      return payload(s, t, expected, what);
+    }
+    src_.fail_line(offset(el), what + ": unknown format " + quoted(format));
+  }
+
+  uint64_t count_tokens(uint64_t b, uint64_t e) const {
+    uint64_t n = 0;
+    bool in = false;
+    for (uint64_t i = b; i < e; ++i) {
+      bool const sp = is_space(src_.bytes[i]);
+      n += (!sp && !in);
+      in = !sp;
+    }
+    return n;
+  }
+
+  /// Header + data of a binary array (VTK's layout: one byte count, or for
+  /// zlib: nblocks, block size, last block size, compressed block sizes).
+  NumArray payload(ByteStream& s, NumType t, uint64_t expected, std::string const& what) {
+    uint64_t const esize = num_size(t);
+    uint64_t const start = s.offset();
+    auto check_size = [&](uint64_t bytes) {
+      if (expected != unknown && bytes != bytes_for(t, expected))
+        src_.fail_byte(start, what + ": the header says " + std::to_string(bytes) + " bytes, expected " +
+                                  std::to_string(bytes_for(t, expected)) + " (" + std::to_string(expected) + " " +
+                                  num_name(t) + " values)");
+      if (bytes % esize)
+        src_.fail_byte(start, what + ": " + std::to_string(bytes) + " bytes is not a whole number of " + num_name(t) + " values");
+    };
+    if (!compressed_) {
+      uint64_t const bytes = header_int(s);
+      check_size(bytes);
+      if (bytes > s.max_left())
+        src_.fail_byte(s.offset(), what + ": " + std::to_string(bytes) + " bytes declared but at most " +
+                                       std::to_string(s.max_left()) + " are left");
+      if (!s.base64()) return NumArray::viewing(t, bytes / esize, s.raw(bytes), swap_);
+      std::vector<unsigned char> out(bytes);
+      s.read(out.data(), bytes);
+      return NumArray::owning_bytes(t, bytes / esize, std::move(out), swap_);
+    }
+    uint64_t const nblocks = header_int(s);
+    if (nblocks > s.max_left() / header_size_)
+      src_.fail_byte(start, what + ": " + std::to_string(nblocks) + " compressed blocks declared, more than the data can hold");
+    uint64_t const block = header_int(s);
+    uint64_t const last = header_int(s);
+    std::vector<uint64_t> csize(nblocks);
+    uint64_t ctotal = 0;
+    for (auto& c : csize) {
+      c = header_int(s);
+      if (c > s.max_left()) src_.fail_byte(start, what + ": a compressed block of " + std::to_string(c) + " bytes runs past the data");
+      ctotal += c;
+    }
+    if (ctotal > s.max_left())
+      src_.fail_byte(start, what + ": compressed blocks of " + std::to_string(ctotal) + " bytes run past the data");
+    uint64_t const last_size = last ? last : block;
+    if (nblocks && (last > block || block > max_count || nblocks > max_count / (block + 1)))
+      src_.fail_byte(start, what + ": inconsistent block sizes (" + std::to_string(block) + ", last " + std::to_string(last) + ")");
+    uint64_t const total = nblocks ? (nblocks - 1) * block + last_size : 0;
+    check_size(total);
+    if (total > zlib_max_ratio * ctotal + 64 * nblocks)
+      src_.fail_byte(start, what + ": " + std::to_string(total) + " bytes cannot come from " + std::to_string(ctotal) +
+                                " compressed bytes (corrupt header)");
+    std::vector<unsigned char> out(total), tmp;
+    uint64_t at = 0;
+    for (uint64_t i = 0; i < nblocks; ++i) {
+      uint64_t const here = s.offset();
+      unsigned char const* z;
+      if (s.base64()) {
+        tmp.resize(csize[i]);
+        s.read(tmp.data(), csize[i]);
+        z = tmp.data();
+      } else {
+        z = s.raw(csize[i]);
+      }
+      uint64_t const want = i + 1 == nblocks ? last_size : block;
+      uLongf got = uLongf(want);
+      int const rc = uncompress(out.data() + at, &got, z, uLong(csize[i]));
+      if (rc != Z_OK || got != want)
+        src_.fail_byte(here, what + ": zlib block " + std::to_string(i) + " of " + std::to_string(nblocks) +
+                                 " does not inflate to " + std::to_string(want) + " bytes (" +
+                                 (rc == Z_OK ? "got " + std::to_string(got) : std::string(zError(rc))) + ")");
+      at += want;
+    }
+    return NumArray::owning_bytes(t, total / esize, std::move(out), swap_);
+  }
+
+  /// One PointData / CellData child: a numeric DataArray becomes an array,
+  /// anything else is reported as ignored.
+  void array(UnstructuredGrid& grid, pugi::xml_node a, uint64_t tuples, bool cell, CellKinds const& kinds) {
+    if (a.type() != pugi::node_element) return;
+    char const* where = cell ? "cell" : "point";
+    std::string name = a.attribute("Name").value();
+    if (name.empty()) name = std::string("unnamed_") + where + "_" + std::to_string(cell ? grid.cell_arrays.size() : grid.point_arrays.size());
+    NumType t{};
+    if (std::string_view(a.name()) != "DataArray" || !xml_type(a.attribute("type").value(), t)) {
+      grid.report.arrays_ignored.push_back(std::string(where) + " " + quoted(name) + " (" + a.name() + " of type " +
+                                           quoted(a.attribute("type").value()) + ")");
+      return;
+    }
+    int const ncomp = components(a);
+    if (a.attribute("NumberOfTuples") && count_attr(a, "NumberOfTuples") != tuples)
+      src_.fail_line(offset(a), std::string(where) + " array " + quoted(name) + ": NumberOfTuples is not " + std::to_string(tuples));
+    uint64_t count = 0;
+    if (!checked_mul(tuples, uint64_t(ncomp), count)) src_.fail_line(offset(a), quoted(name) + ": too many values");
+    NumArray const data = decode(a, count, std::string(where) + " array " + quoted(name));
+    if (cell) add_cell_array(grid, std::move(name), data, ncomp, kinds);
+    else add_point_array(grid, std::move(name), data, ncomp);
+  }
+};
+
+}  // namespace io
+
+/// Reads a VTK XML unstructured grid held in memory; `name_for_errors`
+/// starts every error message. Thread-safe (no shared state).
+/// @throws IoError naming the file and the line (XML, ASCII data) or byte
+///         offset (binary data) on malformed, truncated or unsupported
+///         content, bad base64 or zlib data; never returns a partial grid.
+inline UnstructuredGrid read_vtu_from_memory(std::string_view bytes, std::string name_for_errors,
+                                             ReadOptions const& opts = {}) {
+  io::Source const src{bytes, std::move(name_for_errors)};
+  return io::VtuParser(src, opts).parse();
+}
+
+/// Reads a VTK XML unstructured grid file (".vtu"). See UnstructuredGrid.
+/// @throws IoError as read_vtu_from_memory, or when the file cannot be read.
+inline UnstructuredGrid read_vtu(std::string const& path, ReadOptions const& opts = {}) {
+  std::string const bytes = io::read_file_bytes(path);
+  return read_vtu_from_memory(bytes, path, opts);
+}
+
+}  // namespace cellray
