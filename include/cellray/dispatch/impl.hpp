@@ -3,4 +3,6 @@
 // A host that builds for one ISA may include this and call `Entry<Arch>`
 // directly instead of linking the ISA units.
 
+#include "../cells/queries_impl.hpp"
 #include "../mesh/cell_boxes_impl.hpp"
+#include "../traverse/queries_impl.hpp"

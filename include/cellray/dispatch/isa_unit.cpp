@@ -7,4 +7,6 @@
 namespace cellray {
 CELLRAY_INSTANTIATE_ENTRY(CellBoxes)
 CELLRAY_INSTANTIATE_ENTRY(CellRanges)
+CELLRAY_INSTANTIATE_ENTRY(CellQueries)
+CELLRAY_INSTANTIATE_ENTRY(FirstHitEntry)
 }  // namespace cellray

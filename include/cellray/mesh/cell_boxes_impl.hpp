@@ -8,7 +8,7 @@
 
 namespace cellray {
 inline namespace CELLRAY_ISA_NS {
-namespace detail {
+namespace impl {
 
 /// Vertex ids of corner `c` for the W cells starting at `cell` (all valid).
 template <class Arch, int N>
@@ -103,24 +103,24 @@ inline void boxes_and_ranges(CellMesh<N> const& mesh, uint64_t begin, uint64_t e
   }
 }
 
-}  // namespace detail
+}  // namespace impl
 }  // namespace CELLRAY_ISA_NS
 
 template <class Arch>
 void CellBoxes<Arch>::run(TetMesh const& mesh, uint64_t begin, uint64_t end, ItemBox* out) {
-  detail::boxes_and_ranges<Arch>(mesh, begin, end, out, nullptr, nullptr);
+  impl::boxes_and_ranges<Arch>(mesh, begin, end, out, nullptr, nullptr);
 }
 template <class Arch>
 void CellBoxes<Arch>::run(HexMesh const& mesh, uint64_t begin, uint64_t end, ItemBox* out) {
-  detail::boxes_and_ranges<Arch>(mesh, begin, end, out, nullptr, nullptr);
+  impl::boxes_and_ranges<Arch>(mesh, begin, end, out, nullptr, nullptr);
 }
 template <class Arch>
 void CellRanges<Arch>::run(TetMesh const& mesh, uint64_t begin, uint64_t end, float* vmin, float* vmax) {
-  detail::boxes_and_ranges<Arch>(mesh, begin, end, nullptr, vmin, vmax);
+  impl::boxes_and_ranges<Arch>(mesh, begin, end, nullptr, vmin, vmax);
 }
 template <class Arch>
 void CellRanges<Arch>::run(HexMesh const& mesh, uint64_t begin, uint64_t end, float* vmin, float* vmax) {
-  detail::boxes_and_ranges<Arch>(mesh, begin, end, nullptr, vmin, vmax);
+  impl::boxes_and_ranges<Arch>(mesh, begin, end, nullptr, vmin, vmax);
 }
 
 }  // namespace cellray

@@ -24,7 +24,7 @@ inline float analytic_field(glm::vec3 p, float time = 0.f) {
   glm::vec3 const c2(0.4f, 0.3f - 0.1f * time, -0.25f);
   glm::vec3 const c3(0.05f, 0.45f, 0.5f - 0.2f * time);
   auto blob = [&](glm::vec3 c, float r2) { return std::exp(-glm::dot(p - c, p - c) / r2); };
-  float f = 0.55f * blob(c1, 0.16f) + 0.5f * blob(c2, 0.1f) + 0.4f * blob(c3, 0.06f);
+  float f = 0.6f * blob(c1, 0.35f) + 0.55f * blob(c2, 0.25f) + 0.45f * blob(c3, 0.15f);
   f += 0.08f * std::sin(3.f * p.x + time) * std::sin(2.5f * p.y) * std::cos(2.f * p.z);
   return f + 0.1f;
 }

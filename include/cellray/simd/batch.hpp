@@ -70,7 +70,7 @@ template <class T, class A> inline void store(T* p, xsimd::batch<T, A> const& v)
 template <class Arch, class V> inline auto to_array(V const& v) noexcept {
   using T = std::conditional_t<std::is_same_v<V, vint<Arch>>, int32_t, float>;
   std::array<T, width<Arch>> out{};
-  store(out.data(), v);
+  simd::store(out.data(), v);
   return out;
 }
 

@@ -1,0 +1,144 @@
+#pragma once
+// First isosurface hit over the min-max BVH: packet, SPMD and hybrid
+// traversal of W rays (Rathke 2015 §5.5, §6). Subtrees whose value range
+// holds none of the isovalues are skipped; all isovalues are tested in one
+// traversal (§6.1). ISA units only.
+
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+
+#include "cell_ops.hpp"
+#include "packet.hpp"
+#include "traverse.hpp"
+#include "tree_view.hpp"
+
+namespace cellray {
+inline namespace CELLRAY_ISA_NS {
+
+/// Per-lane state of a first-hit query. `item` is the item-list position of
+/// the hit cell (-1 none); t starts at tmax and only shrinks.
+template <class A> struct HitPacket {
+  vfloat<A> t;
+  vint<A> item;
+  vint<A> iso;
+};
+
+/// Nearest crossing of any isovalue inside one (broadcast or gathered) tet,
+/// for t in [t_lo, t_hi). Returns the lanes that found one.
+template <class A>
+inline vmask<A> tet_first_crossing(Corners<A, 4> const& c, RayPacket<A> const& r, vmask<A> lanes,
+                                   vfloat<A> const& t_lo, vfloat<A> const& t_hi, IsoSet const& isos,
+                                   CellIsoOptions const&, vfloat<A>& t_best, vint<A>& iso_best) {
+  t_best = vfloat<A>(std::numeric_limits<float>::infinity());
+  iso_best = vint<A>(-1);
+  TetPlanes<A> const p = tet_planes(c);
+  vfloat<A> tin, tout;
+  vmask<A> m = lanes && clip_tet(r, p, tin, tout);
+  vfloat<A> const lo = simd::max(tin, t_lo), hi = simd::min(tout, t_hi);
+  m = m && lo <= hi;
+  if (simd::none(m)) return m;
+  vfloat<A> a, b;
+  tet_linear_along(r, p, c, a, b);
+  m = m && b != vfloat<A>(0.f);  // constant along the ray: no isolated crossing
+  vfloat<A> const inv_b = vfloat<A>(1.f) / simd::select(m, b, vfloat<A>(1.f));
+  vmask<A> found(false);
+  for (int k = 0; k < isos.count; ++k) {
+    vfloat<A> const t = (vfloat<A>(isos.values[k]) - a) * inv_b;
+    vmask<A> const ok = m && t >= lo && t <= hi && t < t_best && t < t_hi;
+    t_best = simd::select(ok, t, t_best);
+    iso_best = simd::select(simd::to_int_mask(ok), vint<A>(k), iso_best);
+    found = found || ok;
+  }
+  return found;
+}
+
+template <class A, int N> struct IsoCell;
+template <class A> struct IsoCell<A, 4> {
+  static vmask<A> crossing(Corners<A, 4> const& c, RayPacket<A> const& r, vmask<A> lanes, vfloat<A> const& lo,
+                           vfloat<A> const& hi, IsoSet const& isos, CellIsoOptions const& m, vfloat<A>& t, vint<A>& iso) {
+    return tet_first_crossing(c, r, lanes, lo, hi, isos, m, t, iso);
+  }
+};
+
+/// Uniform cell range test from the corner values (NaN: never).
+template <int N> inline bool cell_range_has_iso(CellMesh<N> const& mesh, uint64_t cell, IsoSet const& isos) {
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  for (int k = 0; k < N; ++k) {
+    float const v = mesh.value(mesh.vertex(cell, k));
+    if (!(v == v)) return false;
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  return isos.overlaps(lo, hi);
+}
+
+/// The first-hit query for the traversal skeletons (traverse.hpp).
+template <class A, int N> struct FirstHitQuery {
+  TreeView const& tree;
+  CellMesh<N> const& mesh;
+  RayPacket<A> const& r;
+  IsoSet const& isos;
+  CellIsoOptions const& method;
+  HitPacket<A> hit;
+
+  bool node_relevant(float vmin, float vmax) const { return isos.overlaps(vmin, vmax); }
+  vmask<A> relevant(vfloat<A> const& vmin, vfloat<A> const& vmax) const {
+    vmask<A> m(false);
+    for (int k = 0; k < isos.count; ++k) m = m || (vfloat<A>(isos.values[k]) >= vmin && vfloat<A>(isos.values[k]) <= vmax);
+    return m;
+  }
+  vfloat<A> t_lo() const { return r.tmin; }
+  vfloat<A> t_hi() const { return hit.t; }
+
+  void update(vmask<A> const& f, vfloat<A> const& t, vint<A> const& iso, vint<A> const& slot) {
+    hit.t = simd::select(f, t, hit.t);
+    hit.iso = simd::select(simd::to_int_mask(f), iso, hit.iso);
+    hit.item = simd::select(simd::to_int_mask(f), slot, hit.item);
+  }
+
+  void leaf(uint64_t first, uint32_t count, vmask<A> const& m) {
+    for (uint64_t i = first; i < first + count; ++i) {
+      uint64_t const cell = tree.item(i);
+      if (!cell_range_has_iso(mesh, cell, isos)) continue;
+      Corners<A, N> const c = load_corners<A>(mesh, cell);
+      vfloat<A> t;
+      vint<A> iso;
+      vmask<A> const f = IsoCell<A, N>::crossing(c, r, m, r.tmin, hit.t, isos, method, t, iso);
+      if (simd::any(f)) update(f, t, iso, vint<A>(int32_t(i)));
+    }
+  }
+
+  void leaf_items(vint<A> const& slots, vmask<A> const& m) {
+    alignas(64) int32_t s[width<A>], cells[width<A>];
+    simd::store(s, slots);
+    for (int l = 0; l < width<A>; ++l) cells[l] = 0;
+    for (uint32_t b = simd::movemask(m); b; b &= b - 1) {
+      int const l = __builtin_ctz(b);
+      cells[l] = int32_t(uint32_t(tree.item(uint64_t(uint32_t(s[l])))));
+    }
+    Corners<A, N> const c = load_corners<A, N>(mesh, simd::load<A>(cells), m);
+    vfloat<A> t;
+    vint<A> iso;
+    vmask<A> const f = IsoCell<A, N>::crossing(c, r, m, r.tmin, hit.t, isos, method, t, iso);
+    update(f, t, iso, slots);
+  }
+
+  void single(int lane, uint32_t node) {
+    RayPacket<scalar> const one = extract_lane(r, lane);
+    alignas(64) float ts[width<A>];
+    alignas(64) int32_t items[width<A>], iso[width<A>];
+    simd::store(ts, hit.t);
+    simd::store(items, hit.item);
+    simd::store(iso, hit.iso);
+    FirstHitQuery<scalar, N> q1{tree, mesh, one, isos, method, {ts[lane], items[lane], iso[lane]}};
+    traverse_packet<scalar>(tree, one, true, q1, node);
+    ts[lane] = q1.hit.t, items[lane] = q1.hit.item, iso[lane] = q1.hit.iso;
+    hit.t = simd::load<A>(ts);
+    hit.item = simd::load<A>(items);
+    hit.iso = simd::load<A>(iso);
+  }
+};
+
+}  // namespace CELLRAY_ISA_NS
+}  // namespace cellray

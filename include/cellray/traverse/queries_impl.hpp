@@ -1,0 +1,74 @@
+#pragma once
+// Bodies of the query entry points (ISA units only).
+
+#include <cmath>
+
+#include <glm/geometric.hpp>
+
+#include "first_hit.hpp"
+#include "queries.hpp"
+
+namespace cellray {
+inline namespace CELLRAY_ISA_NS {
+namespace impl {
+
+/// Unit normal of the field at a hit, facing the ray origin.
+template <int N>
+inline glm::vec3 hit_normal(CellMesh<N> const& mesh, uint64_t cell, Ray const& ray, float) {
+  Corners<scalar, N> const c = load_corners<scalar>(mesh, cell);
+  float gx, gy, gz;
+  if constexpr (N == 4) {
+    TetPlanes<scalar> const p = tet_planes(c);
+    gradient_tet(p, c, gx, gy, gz);
+  }
+  glm::vec3 n(gx, gy, gz);
+  float const len = std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+  if (!(len > 0.f)) return -glm::normalize(ray.dir);
+  n /= len;
+  return (n.x * ray.dir.x + n.y * ray.dir.y + n.z * ray.dir.z) > 0.f ? -n : n;
+}
+
+template <class A, int N>
+void first_hits(TreeView const& tree, CellMesh<N> const& mesh, Ray const* rays, uint64_t n, IsoQuery const& q,
+                SurfaceHit* out) {
+  constexpr int W = width<A>;
+  int const threshold = q.hybrid_threshold > 0 ? q.hybrid_threshold : std::max(1, W / 4);
+  for (uint64_t base = 0; base < n; base += W) {
+    int const cnt = int(std::min<uint64_t>(W, n - base));
+    RayPacket<A> const r = load_rays<A>(rays + base, cnt);
+    vmask<A> const active = simd::mask_from_bits<A>(cnt >= 32 ? ~0u : (1u << cnt) - 1u) && r.tmin <= r.tmax;
+    FirstHitQuery<A, N> fq{tree, mesh, r, q.isos, q.method, {r.tmax, vint<A>(-1), vint<A>(-1)}};
+    switch (q.traversal) {
+      case Traversal::packet: traverse_packet<A>(tree, r, active, fq); break;
+      case Traversal::hybrid: traverse_packet<A>(tree, r, active, fq, 0, threshold); break;
+      case Traversal::spmd: traverse_spmd<A>(tree, r, active, fq); break;
+    }
+    HitPacket<A> const& hit = fq.hit;
+    alignas(64) float t[W];
+    alignas(64) int32_t item[W], iso[W];
+    simd::store(t, hit.t);
+    simd::store(item, hit.item);
+    simd::store(iso, hit.iso);
+    for (int l = 0; l < cnt; ++l) {
+      SurfaceHit h;
+      if (item[l] >= 0) {
+        h.t = t[l];
+        h.iso = iso[l];
+        h.cell = tree.item(uint64_t(item[l]));
+        h.normal = hit_normal(mesh, h.cell, rays[base + uint64_t(l)], t[l]);
+      }
+      out[base + uint64_t(l)] = h;
+    }
+  }
+}
+
+}  // namespace impl
+}  // namespace CELLRAY_ISA_NS
+
+template <class Arch>
+void FirstHitEntry<Arch>::run(TreeView const& tree, TetMesh const& mesh, Ray const* rays, uint64_t n,
+                              IsoQuery const& q, SurfaceHit* hits) {
+  impl::first_hits<Arch>(tree, mesh, rays, n, q, hits);
+}
+
+}  // namespace cellray

@@ -1,0 +1,143 @@
+#pragma once
+// The two traversal skeletons every query uses (Rathke 2015 §5.5):
+//   packet: W rays visit one node together with one uniform stack;
+//   SPMD:   each lane pops, tests and descends on its own stack.
+// Hybrid is packet traversal that hands a subtree reached by fewer than a
+// threshold of lanes to single-ray (width-1 packet) traversal.
+//
+// A query supplies, for packet traversal:
+//   bool node_relevant(float vmin, float vmax)      uniform value-range filter
+//   vfloat<A> t_lo(), t_hi()                         per-lane interval to search
+//   void leaf(uint64_t first_slot, uint32_t count, vmask<A> lanes)
+//   void single(int lane, uint32_t node)             hybrid: finish one lane alone
+// and for SPMD:
+//   vmask<A> relevant(vfloat<A> vmin, vfloat<A> vmax)
+//   void leaf_items(vint<A> slots, vmask<A> lanes)  one item per lane
+// ISA units only.
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include "packet.hpp"
+#include "tree_view.hpp"
+
+namespace cellray {
+inline namespace CELLRAY_ISA_NS {
+
+inline constexpr int traversal_stack_size = int(MinMaxBvh::max_depth) + 2;
+
+template <class A> inline int popcount(vmask<A> const& m) { return __builtin_popcount(simd::movemask(m)); }
+
+template <class A, class Query>
+void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> active, Query& q, uint32_t root = 0,
+                     int hybrid_threshold = 0) {
+  if (tree.empty() || simd::none(active)) return;
+  uint32_t stack[traversal_stack_size];
+  int sp = 0;
+  stack[sp++] = root;
+  while (sp > 0) {
+    uint32_t const ni = stack[--sp];
+    Node const& node = tree.nodes[ni];
+    if (!q.node_relevant(tree.ranges[2 * ni], tree.ranges[2 * ni + 1])) continue;
+    vfloat<A> tn;
+    vmask<A> const m = active && box_hit(r, node.lo, node.hi, q.t_lo(), q.t_hi(), tn);
+    if (simd::none(m)) continue;
+    if constexpr (!std::is_same_v<A, scalar>) {
+      if (hybrid_threshold > 0 && popcount<A>(m) < hybrid_threshold) {
+        for (uint32_t bits = simd::movemask(m); bits; bits &= bits - 1) q.single(__builtin_ctz(bits), ni);
+        continue;
+      }
+    }
+    if (node.is_leaf()) {
+      q.leaf(node.first_item(), node.item_count(), m);
+      continue;
+    }
+    Node const& left = tree.nodes[node.left()];
+    Node const& right = tree.nodes[node.right()];
+    vfloat<A> tl, tr;
+    vmask<A> const ml = m && box_hit(r, left.lo, left.hi, q.t_lo(), q.t_hi(), tl);
+    vmask<A> const mr = m && box_hit(r, right.lo, right.hi, q.t_lo(), q.t_hi(), tr);
+    bool const hl = simd::any(ml), hr = simd::any(mr);
+    // The builders cap the depth at MinMaxBvh::max_depth, so the stack holds.
+    if (hl && hr) {
+      // Nearer child first: the one most of the lanes that enter both enter first.
+      bool const left_first = popcount<A>(ml && mr && tl <= tr) * 2 >= popcount<A>(ml && mr);
+      stack[sp++] = left_first ? node.right() : node.left();
+      stack[sp++] = left_first ? node.left() : node.right();
+    } else if (hl || hr) {
+      stack[sp++] = hl ? node.left() : node.right();
+    }
+  }
+}
+
+template <class A, class Query>
+void traverse_spmd(TreeView const& tree, RayPacket<A> const& r, vmask<A> active, Query& q) {
+  constexpr int W = width<A>;
+  if (tree.empty() || simd::none(active)) return;
+  uint32_t stack[W][traversal_stack_size];
+  int sp[W];
+  uint32_t const lanes = simd::movemask(active);
+  for (int l = 0; l < W; ++l) {
+    sp[l] = int((lanes >> l) & 1u);
+    stack[l][0] = 0;
+  }
+  float const* nf = reinterpret_cast<float const*>(tree.nodes);
+  int32_t const* ni32 = reinterpret_cast<int32_t const*>(tree.nodes);
+  alignas(64) float dir[3][W];
+  simd::store(dir[0], r.dx), simd::store(dir[1], r.dy), simd::store(dir[2], r.dz);
+  while (true) {
+    alignas(64) int32_t cur[W];
+    uint32_t has = 0;
+    for (int l = 0; l < W; ++l) {
+      cur[l] = 0;
+      if (sp[l] > 0) cur[l] = int32_t(stack[l][--sp[l]]), has |= 1u << l;
+    }
+    if (!has) break;
+    vint<A> const node = simd::load<A>(cur);
+    vint<A> const off = node * vint<A>(8);  // 8 words per node
+    vfloat<A> const lo[3] = {simd::gather(nf, off), simd::gather(nf + 1, off), simd::gather(nf + 2, off)};
+    vfloat<A> const hi[3] = {simd::gather(nf + 4, off), simd::gather(nf + 5, off), simd::gather(nf + 6, off)};
+    vint<A> const first = simd::gather(ni32 + 3, off);
+    vint<A> const raw_count = simd::gather(ni32 + 7, off);  // all bits set: inner node
+    vint<A> const r2 = node * vint<A>(2);
+    vfloat<A> tn;
+    vmask<A> const m = simd::mask_from_bits<A>(has) &&
+                       q.relevant(simd::gather(tree.ranges, r2), simd::gather(tree.ranges + 1, r2)) &&
+                       box_hit_varying(r, lo, hi, q.t_lo(), q.t_hi(), tn);
+    vmask<A> const is_inner = simd::to_float_mask(raw_count == vint<A>(-1));
+    uint32_t ib = simd::movemask(m && is_inner);
+    if (ib) {
+      alignas(64) int32_t fst[W];
+      simd::store(fst, first);
+      for (; ib; ib &= ib - 1) {
+        int const l = __builtin_ctz(ib);
+        uint32_t const c0 = uint32_t(fst[l]);
+        Node const& a = tree.nodes[c0];
+        Node const& b = tree.nodes[c0 + 1];
+        // Near child by the lane's direction along the axis that separates
+        // the children's centres most (no second box test per lane).
+        float best = -1.f, along = 0.f;
+        for (int k = 0; k < 3; ++k) {
+          float const sep = (b.lo[k] + b.hi[k]) - (a.lo[k] + a.hi[k]);
+          if (std::fabs(sep) > best) best = std::fabs(sep), along = sep * dir[k][l];
+        }
+        bool const a_first = along >= 0.f;
+        stack[l][sp[l]++] = a_first ? c0 + 1 : c0;
+        stack[l][sp[l]++] = a_first ? c0 : c0 + 1;
+      }
+    }
+    vmask<A> const leaf = m && !is_inner;
+    if (simd::none(leaf)) continue;
+    vint<A> const count = simd::select(simd::to_int_mask(leaf), raw_count & vint<A>(0xFF), vint<A>(0));
+    auto const counts = simd::to_array<A>(count);
+    int const kmax = *std::max_element(counts.begin(), counts.end());
+    for (int k = 0; k < kmax; ++k) {
+      vmask<A> const mk = leaf && simd::to_float_mask(vint<A>(k) < count);
+      q.leaf_items(first + vint<A>(k), mk);
+    }
+  }
+}
+
+}  // namespace CELLRAY_ISA_NS
+}  // namespace cellray
