@@ -1,0 +1,177 @@
+#pragma once
+// What every cell kernel consumes: a batch of rays or points, and the corners
+// of one cell per lane (the same cell in every lane for packet traversal, a
+// different cell per lane for SPMD traversal), with loaders for both.
+
+#include <cstdint>
+#include <limits>
+
+#include "../mesh/cell_mesh.hpp"
+#include "../simd/batch.hpp"
+
+namespace cellray {
+inline namespace CELLRAY_ISA_NS {
+
+/// Three batches: one 3-vector per lane.
+template <class A> struct Vec3 {
+  vfloat<A> x, y, z;
+};
+
+template <class A> inline Vec3<A> operator+(Vec3<A> const& a, Vec3<A> const& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+template <class A> inline Vec3<A> operator-(Vec3<A> const& a, Vec3<A> const& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+template <class A> inline Vec3<A> operator*(vfloat<A> const& s, Vec3<A> const& a) { return {s * a.x, s * a.y, s * a.z}; }
+template <class A> inline vfloat<A> dot(Vec3<A> const& a, Vec3<A> const& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+template <class A> inline Vec3<A> cross(Vec3<A> const& a, Vec3<A> const& b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+template <class A> inline Vec3<A> select(vmask<A> const& m, Vec3<A> const& a, Vec3<A> const& b) {
+  return {simd::select(m, a.x, b.x), simd::select(m, a.y, b.y), simd::select(m, a.z, b.z)};
+}
+/// a + t (b - a).
+template <class A> inline vfloat<A> lerp(vfloat<A> const& a, vfloat<A> const& b, vfloat<A> const& t) { return a + t * (b - a); }
+template <class A> inline Vec3<A> lerp(Vec3<A> const& a, Vec3<A> const& b, vfloat<A> const& t) {
+  return {lerp<A>(a.x, b.x, t), lerp<A>(a.y, b.y, t), lerp<A>(a.z, b.z, t)};
+}
+
+/// One ray per lane: origin and direction (any length, not normalized: every
+/// `t` the kernels return is in units of this direction). Kernels treat the
+/// ray as the full line; callers clip to their own [t_min, t_max].
+template <class A> struct RayBatch {
+  vfloat<A> ox, oy, oz, dx, dy, dz;
+  Vec3<A> origin() const { return {ox, oy, oz}; }
+  Vec3<A> dir() const { return {dx, dy, dz}; }
+};
+
+/// One query point per lane.
+template <class A> struct PointBatch {
+  vfloat<A> x, y, z;
+  Vec3<A> p() const { return {x, y, z}; }
+};
+
+/// The corners of one cell per lane: positions, scalar values (the active
+/// array; NaN when the mesh has none) and global vertex ids. Hexahedra keep
+/// VTK node order. Tetrahedra from the loaders are stored in ascending global
+/// vertex id order (any orientation): the tet kernels build each face plane
+/// from its vertices in that order, so two cells sharing a face evaluate
+/// bit-identical expressions for it (watertightness). Hand-built corners
+/// work in any order, only without that guarantee. Ids are the low 31 bits of
+/// the mesh's vertex ids (meshes up to 2^31 vertices order faces exactly).
+template <class A, int N> struct CellCorners {
+  vfloat<A> x[N], y[N], z[N], s[N];
+  vint<A> id[N];
+  Vec3<A> p(int i) const { return {x[i], y[i], z[i]}; }
+};
+
+namespace detail {
+
+template <class A, int N> inline void swap_corners_if(CellCorners<A, N>& c, int i, int j) {
+  // Compare-exchange on the id: a sorting network step on whole corners.
+  vmaski<A> const mi = c.id[i] > c.id[j];
+  vmask<A> const m = simd::to_float_mask(mi);
+  vint<A> const id_i = simd::select(mi, c.id[j], c.id[i]);
+  c.id[j] = simd::select(mi, c.id[i], c.id[j]);
+  c.id[i] = id_i;
+  vfloat<A>* comps[4] = {c.x, c.y, c.z, c.s};
+  for (vfloat<A>* v : comps) {
+    vfloat<A> const lo = simd::select(m, v[j], v[i]);
+    v[j] = simd::select(m, v[i], v[j]);
+    v[i] = lo;
+  }
+}
+
+template <class A> inline void sort_tet_corners(CellCorners<A, 4>& c) {
+  swap_corners_if(c, 0, 1);
+  swap_corners_if(c, 2, 3);
+  swap_corners_if(c, 0, 2);
+  swap_corners_if(c, 1, 3);
+  swap_corners_if(c, 1, 2);
+}
+
+}  // namespace detail
+
+/// The corners of `cell` in every lane (packet traversal). No range check.
+template <class A, int N> inline CellCorners<A, N> broadcast_corners(CellMesh<N> const& mesh, uint64_t cell) {
+  CellCorners<A, N> c;
+  float const* xyz = mesh.positions();
+  float const* val = mesh.values();
+  for (int i = 0; i < N; ++i) {
+    uint64_t const v = mesh.vertex(cell, i);
+    c.x[i] = vfloat<A>(xyz[3 * v]);
+    c.y[i] = vfloat<A>(xyz[3 * v + 1]);
+    c.z[i] = vfloat<A>(xyz[3 * v + 2]);
+    c.s[i] = vfloat<A>(val ? val[v] : std::numeric_limits<float>::quiet_NaN());
+    c.id[i] = vint<A>(int32_t(v & 0x7fffffffu));
+  }
+  if constexpr (N == 4) detail::sort_tet_corners(c);
+  return c;
+}
+
+/// The corners of `cells[i]` in lane i (SPMD traversal). Inactive lanes load
+/// cell 0 (the mesh must not be empty); their contents are meaningless.
+/// Native gathers when offsets fit in 31 bits (cell*N and 3*vertex), else a
+/// scalar loop.
+template <class A, int N>
+inline CellCorners<A, N> gather_corners(CellMesh<N> const& mesh, vint<A> const& cells, vmask<A> const& active) {
+  CellCorners<A, N> c;
+  vint<A> const cell = simd::select(simd::to_int_mask(active), cells, vint<A>(0));
+  float const* xyz = mesh.positions();
+  float const* val = mesh.values();
+  constexpr uint64_t lim = uint64_t(std::numeric_limits<int32_t>::max());
+  if (mesh.has_32bit_indices() && mesh.cell_count() * N < lim && mesh.vertex_count() * 3 < lim) {
+    auto const* idx = reinterpret_cast<int32_t const*>(mesh.indices32());
+    for (int i = 0; i < N; ++i) {
+      vint<A> const v = simd::gather(idx, cell * vint<A>(N) + vint<A>(i));
+      vint<A> const v3 = v * vint<A>(3);
+      c.x[i] = simd::gather(xyz, v3);
+      c.y[i] = simd::gather(xyz + 1, v3);
+      c.z[i] = simd::gather(xyz + 2, v3);
+      c.s[i] = val ? simd::gather(val, v) : vfloat<A>(std::numeric_limits<float>::quiet_NaN());
+      c.id[i] = v;
+    }
+  } else {
+    alignas(64) int32_t cid[width<A>];
+    simd::store(cid, cell);
+    alignas(64) float fx[width<A>], fy[width<A>], fz[width<A>], fs[width<A>];
+    alignas(64) int32_t ids[width<A>];
+    for (int i = 0; i < N; ++i) {
+      for (int l = 0; l < width<A>; ++l) {
+        uint64_t const v = mesh.vertex(uint64_t(uint32_t(cid[l])), i);
+        fx[l] = xyz[3 * v], fy[l] = xyz[3 * v + 1], fz[l] = xyz[3 * v + 2];
+        fs[l] = val ? val[v] : std::numeric_limits<float>::quiet_NaN();
+        ids[l] = int32_t(v & 0x7fffffffu);
+      }
+      c.x[i] = simd::load<A>(fx), c.y[i] = simd::load<A>(fy), c.z[i] = simd::load<A>(fz);
+      c.s[i] = simd::load<A>(fs), c.id[i] = simd::load<A>(ids);
+    }
+  }
+  if constexpr (N == 4) detail::sort_tet_corners(c);
+  return c;
+}
+
+/// True in lanes whose cell has a NaN vertex value: such cells are invisible
+/// to iso and DVR (the rule of mesh/cell_boxes.hpp).
+template <class A, int N> inline vmask<A> has_nan_value(CellCorners<A, N> const& c) {
+  vmask<A> m = simd::isnan(c.s[0]);
+  for (int i = 1; i < N; ++i) m = m || simd::isnan(c.s[i]);
+  return m;
+}
+
+/// Shading normal from a field gradient: -g/|g|, pointing from higher to lower
+/// values (out of the region {value >= iso}), the same orientation all over
+/// an isosurface whichever side the ray comes from. A zero or non-finite
+/// gradient gives -dir/|dir| (facing the viewer), never NaN.
+template <class A> inline Vec3<A> shading_normal(Vec3<A> const& g, Vec3<A> const& dir) {
+  vfloat<A> const gg = dot(g, g);
+  vmask<A> const ok = gg > vfloat<A>(0.f) && gg < vfloat<A>(std::numeric_limits<float>::infinity());
+  Vec3<A> const v = select<A>(ok, vfloat<A>(-1.f) * g, vfloat<A>(-1.f) * dir);
+  vfloat<A> const len2 = dot(v, v);
+  return (vfloat<A>(1.f) / simd::sqrt(simd::select(len2 > vfloat<A>(0.f), len2, vfloat<A>(1.f)))) * v;
+}
+
+/// `n` flipped, where needed, to face against `dir` (two-sided shading).
+template <class A> inline Vec3<A> face_forward(Vec3<A> const& n, Vec3<A> const& dir) {
+  return select<A>(dot(n, dir) > vfloat<A>(0.f), vfloat<A>(-1.f) * n, n);
+}
+
+}  // namespace CELLRAY_ISA_NS
+}  // namespace cellray

@@ -1,0 +1,452 @@
+#pragma once
+// Hexahedron kernels, float SIMD, one lane per ray or point (Rathke 2015
+// §6.4, §7, Fig. 5). Trilinear field over VTK node order; scalar double
+// oracle in cells/reference.hpp.
+//
+// Face model: bilinear patches. The boundary of the trilinear map restricted
+// to a face *is* the bilinear patch through the face's four corners, so ray
+// clipping against patches agrees with point containment by trilinear
+// inversion (u, v, w in [0,1]) without any split of non-planar quads. Each
+// patch is evaluated from its corners in a canonical order (start at the
+// lowest global vertex id, continue towards the lower of its two neighbours),
+// so two hexes sharing a face compute the same ray parameter, patch
+// coordinates and value bit for bit. A ray meeting a patch more than twice in
+// total (non-convex hex with strongly curved faces) gets the hull of its
+// crossings as one interval.
+//
+// "Exact" iso roots for general hexes: the straight segment in parametric
+// space between the clip's entry and exit points carries the trilinear field
+// as a cubic in the segment parameter (exact when the hex is a parallelepiped,
+// where the ray's preimage is that segment). Its first root is isolated by
+// splitting at the cubic's extrema (Marmitt et al. 2004) and polished by a
+// safeguarded Newton iteration; then `refine_steps` world-space Newton steps
+// on value(o + t d) - iso (trilinear inversion at each step) move the root
+// onto the real ray inside the same bracket. Accuracy against the double
+// reference is measured in tests/test_cells_hex.cpp.
+
+#include <limits>
+
+#include "tet.hpp"
+
+namespace cellray {
+inline namespace CELLRAY_ISA_NS {
+
+/// CellClip plus the trilinear coordinates (u, v, w) of the entry and exit
+/// points, read off the entry/exit patches (exact, not inverted).
+template <class A> struct HexClip : CellClip<A> {
+  Vec3<A> u_in, u_out;
+};
+
+/// Containment tolerance in trilinear coordinates: inside means every
+/// coordinate in [-tol, 1 + tol]. Positive so that points on shared faces
+/// and edges are never lost (no gaps); the price is a band of width about
+/// tol x cell size claimed by both neighbours (measured as the double rate).
+inline constexpr float hex_inside_tolerance = 1e-5f;
+/// Newton inversion: iteration cap and convergence threshold on the step
+/// (trilinear coordinates). Float Newton reaches ~1e-7 near a solution, so
+/// 1e-5 on the step means the last iterate is already at rounding level.
+inline constexpr int hex_newton_cap = 12;
+inline constexpr float hex_newton_tol = 1e-5f;
+/// Patch coordinates are accepted in [-tol, 1 + tol]: rounding of the
+/// quadratic's roots must not lose a crossing at a patch edge (ray through a
+/// hex edge or vertex). Canonical evaluation keeps neighbours consistent.
+inline constexpr float hex_patch_tolerance = 6e-5f;
+
+namespace detail {
+
+/// VTK hex faces as cyclic corner lists and corner trilinear coordinates.
+inline constexpr int hex_faces[6][4] = {{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 5, 4},
+                                        {3, 2, 6, 7}, {0, 3, 7, 4}, {1, 2, 6, 5}};
+inline constexpr float hex_corner_uvw[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                                               {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+
+template <class A> struct PatchCorner {
+  Vec3<A> p;
+  vfloat<A> s;
+  vint<A> id;
+  Vec3<A> uvw;
+};
+
+template <class A>
+inline PatchCorner<A> select_corner(vmask<A> const& m, vmaski<A> const& mi, PatchCorner<A> const& a,
+                                    PatchCorner<A> const& b) {
+  return {select<A>(m, a.p, b.p), simd::select(m, a.s, b.s), simd::select(mi, a.id, b.id),
+          select<A>(m, a.uvw, b.uvw)};
+}
+
+/// The face's corners in canonical order (see the file comment), per lane.
+template <class A> inline void canonical_patch(CellCorners<A, 8> const& c, int f, PatchCorner<A> q[4]) {
+  for (int k = 0; k < 4; ++k) {
+    int const i = hex_faces[f][k];
+    q[k] = {c.p(i), c.s[i], c.id[i],
+            {vfloat<A>(hex_corner_uvw[i][0]), vfloat<A>(hex_corner_uvw[i][1]), vfloat<A>(hex_corner_uvw[i][2])}};
+  }
+  // Rotate the lowest id to position 0: by 2 if it sits at 2 or 3, then by 1.
+  vint<A> const lo01 = simd::select(q[1].id < q[0].id, q[1].id, q[0].id);
+  vint<A> const lo23 = simd::select(q[3].id < q[2].id, q[3].id, q[2].id);
+  vmaski<A> const r2i = lo23 < lo01;
+  vmaski<A> const r1i = (r2i && (q[3].id < q[2].id)) || (!r2i && (q[1].id < q[0].id));
+  vmask<A> const r2 = simd::to_float_mask(r2i), r1 = simd::to_float_mask(r1i);
+  PatchCorner<A> t[4];
+  for (int k = 0; k < 4; ++k) t[k] = select_corner<A>(r2, r2i, q[(k + 2) & 3], q[k]);
+  for (int k = 0; k < 4; ++k) q[k] = select_corner<A>(r1, r1i, t[(k + 1) & 3], t[k]);
+  // Walk towards the lower-id neighbour.
+  vmaski<A> const flipi = q[3].id < q[1].id;
+  vmask<A> const flip = simd::to_float_mask(flipi);
+  PatchCorner<A> const q1 = q[1];
+  q[1] = select_corner<A>(flip, flipi, q[3], q[1]);
+  q[3] = select_corner<A>(flip, flipi, q1, q[3]);
+}
+
+/// Running hull of patch crossings.
+template <class A> struct HullAcc {
+  vfloat<A> t_in, t_out, s_in, s_out;
+  Vec3<A> u_in, u_out;
+};
+
+/// Ray / bilinear patch intersection after Reshetov, "Cool Patches" (Ray
+/// Tracing Gems, 2019), on the whole line; every valid root updates `acc`.
+template <class A> inline void patch_hits(RayBatch<A> const& ray, PatchCorner<A> const q[4], HullAcc<A>& acc) {
+  vfloat<A> const zero(0.f);
+  vfloat<A> const lo(-hex_patch_tolerance), hi(1.f + hex_patch_tolerance);
+  Vec3<A> const o = ray.origin(), d = ray.dir();
+  Vec3<A> const e10 = q[1].p - q[0].p, e11 = q[2].p - q[1].p, e00 = q[3].p - q[0].p;
+  Vec3<A> const qn = cross(e10, q[3].p - q[2].p);
+  Vec3<A> const p00 = q[0].p - o, p10 = q[1].p - o;
+  vfloat<A> const a = dot(cross(p00, d), e00);
+  vfloat<A> const cc = dot(qn, d);
+  vfloat<A> const b = dot(cross(p10, d), e11) - (a + cc);
+  vfloat<A> const disc = b * b - vfloat<A>(4.f) * a * cc;
+  vmask<A> const real = disc >= zero;
+  vfloat<A> const sq = simd::sqrt(simd::select(real, disc, zero));
+  vmask<A> const linear = cc == zero;
+  vfloat<A> const qq = vfloat<A>(-0.5f) * (b + simd::select(b >= zero, sq, zero - sq));
+  vfloat<A> const ua = simd::select(linear, zero - a / b, qq / cc);
+  vfloat<A> const ub = a / qq;
+  vmask<A> const valid_b = real && !linear;
+  for (int r = 0; r < 2; ++r) {
+    vfloat<A> const u = r == 0 ? ua : ub;
+    vmask<A> const cand = (r == 0 ? real : valid_b) && u >= lo && u <= hi;
+    if (simd::none(cand)) continue;
+    Vec3<A> const pa = lerp<A>(p00, p10, u);
+    Vec3<A> const pb = lerp<A>(e00, e11, u);
+    Vec3<A> n = cross(d, pb);
+    vfloat<A> const det = dot(n, n);
+    n = cross(n, pa);
+    vfloat<A> const t = dot(n, pb) / det;
+    vfloat<A> const v = dot(n, d) / det;
+    vmask<A> const ok = cand && det > zero && v >= lo && v <= hi;
+    if (simd::none(ok)) continue;
+    vfloat<A> const s = lerp<A>(lerp<A>(q[0].s, q[1].s, u), lerp<A>(q[3].s, q[2].s, u), v);
+    // The face is a unit square in (u, v, w): its bilinear map is affine.
+    Vec3<A> const uvw = q[0].uvw + u * (q[1].uvw - q[0].uvw) + v * (q[3].uvw - q[0].uvw);
+    vmask<A> const new_in = ok && t < acc.t_in;
+    vmask<A> const new_out = ok && t > acc.t_out;
+    acc.t_in = simd::select(new_in, t, acc.t_in);
+    acc.s_in = simd::select(new_in, s, acc.s_in);
+    acc.u_in = select<A>(new_in, uvw, acc.u_in);
+    acc.t_out = simd::select(new_out, t, acc.t_out);
+    acc.s_out = simd::select(new_out, s, acc.s_out);
+    acc.u_out = select<A>(new_out, uvw, acc.u_out);
+  }
+}
+
+template <class A> inline vfloat<A> trilerp(vfloat<A> const* v, Vec3<A> const& u) {
+  vfloat<A> const b0 = lerp<A>(lerp<A>(v[0], v[1], u.x), lerp<A>(v[3], v[2], u.x), u.y);
+  vfloat<A> const b1 = lerp<A>(lerp<A>(v[4], v[5], u.x), lerp<A>(v[7], v[6], u.x), u.y);
+  return lerp<A>(b0, b1, u.z);
+}
+
+/// d/du, d/dv, d/dw of a trilinear function with corner values v.
+template <class A> inline Vec3<A> trilerp_grad(vfloat<A> const* v, Vec3<A> const& u) {
+  vfloat<A> const one(1.f);
+  vfloat<A> const mu = one - u.x, mv = one - u.y, mw = one - u.z;
+  vfloat<A> const du = mw * (mv * (v[1] - v[0]) + u.y * (v[2] - v[3])) + u.z * (mv * (v[5] - v[4]) + u.y * (v[6] - v[7]));
+  vfloat<A> const dv = mw * (mu * (v[3] - v[0]) + u.x * (v[2] - v[1])) + u.z * (mu * (v[7] - v[4]) + u.x * (v[6] - v[5]));
+  vfloat<A> const dw = mv * (mu * (v[4] - v[0]) + u.x * (v[5] - v[1])) + u.y * (mu * (v[7] - v[3]) + u.x * (v[6] - v[2]));
+  return {du, dv, dw};
+}
+
+template <class A> struct Jacobian {
+  Vec3<A> ju, jv, jw;  // columns: dx/du, dx/dv, dx/dw
+};
+
+template <class A> inline Jacobian<A> hex_jacobian(CellCorners<A, 8> const& c, Vec3<A> const& u) {
+  Vec3<A> const gx = trilerp_grad<A>(c.x, u), gy = trilerp_grad<A>(c.y, u), gz = trilerp_grad<A>(c.z, u);
+  return {{gx.x, gy.x, gz.x}, {gx.y, gy.y, gz.y}, {gx.z, gy.z, gz.z}};
+}
+
+/// Newton inversion of the trilinear map (see locate_hex). Starts from
+/// `start` (centre for a cold start), updates lanes in `lanes` only.
+template <class A>
+inline Vec3<A> invert_hex(CellCorners<A, 8> const& c, Vec3<A> const& p, Vec3<A> u, vmask<A> lanes, int cap,
+                          vmask<A>& converged) {
+  vfloat<A> const tol(hex_newton_tol), far(3.f), half(0.5f);
+  vmask<A> active = lanes;
+  converged = vmask<A>(false);
+  for (int it = 0; it < cap && simd::any(active); ++it) {
+    Vec3<A> const x{trilerp<A>(c.x, u), trilerp<A>(c.y, u), trilerp<A>(c.z, u)};
+    Vec3<A> const r = x - p;
+    Jacobian<A> const J = hex_jacobian(c, u);
+    Vec3<A> const cvw = cross(J.jv, J.jw), cwu = cross(J.jw, J.ju), cuv = cross(J.ju, J.jv);
+    vfloat<A> const det = dot(J.ju, cvw);
+    vfloat<A> const inv = vfloat<A>(1.f) / det;
+    Vec3<A> const step{dot(r, cvw) * inv, dot(r, cwu) * inv, dot(r, cuv) * inv};
+    vfloat<A> const size = simd::max(simd::abs(step.x), simd::max(simd::abs(step.y), simd::abs(step.z)));
+    vmask<A> const finite = size < vfloat<A>(std::numeric_limits<float>::infinity());  // false for NaN
+    u = select<A>(active && finite, u - step, u);
+    vmask<A> const done = active && finite && size < tol;
+    converged = converged || done;
+    // A singular Jacobian, or an iterate far outside [0,1]^3 (the point is far
+    // outside the cell), ends the lane: reported not converged, not inside.
+    vfloat<A> const dist = simd::max(simd::abs(u.x - half), simd::max(simd::abs(u.y - half), simd::abs(u.z - half)));
+    active = active && finite && !done && dist < far;
+  }
+  return u;
+}
+
+template <class A> inline Vec3<A> centre() { return {vfloat<A>(0.5f), vfloat<A>(0.5f), vfloat<A>(0.5f)}; }
+
+template <class A> inline vmask<A> in_unit_cube(Vec3<A> const& u, float tol) {
+  vfloat<A> const lo(-tol), hi(1.f + tol);
+  return u.x >= lo && u.x <= hi && u.y >= lo && u.y <= hi && u.z >= lo && u.z <= hi;
+}
+
+/// Gradient of the hex field in world space at trilinear coordinates u:
+/// J^-T times the parametric gradient. `ok` false where J is singular.
+template <class A> inline Vec3<A> hex_world_gradient(CellCorners<A, 8> const& c, Vec3<A> const& u, vmask<A>* ok = nullptr) {
+  Jacobian<A> const J = hex_jacobian(c, u);
+  Vec3<A> const ds = trilerp_grad<A>(c.s, u);
+  Vec3<A> const cvw = cross(J.jv, J.jw), cwu = cross(J.jw, J.ju), cuv = cross(J.ju, J.jv);
+  vfloat<A> const det = dot(J.ju, cvw);
+  vmask<A> const good = !(det == vfloat<A>(0.f)) && !simd::isnan(det);
+  vfloat<A> const inv = vfloat<A>(1.f) / simd::select(good, det, vfloat<A>(1.f));
+  Vec3<A> g = inv * (ds.x * cvw + ds.y * cwu + ds.z * cuv);
+  vfloat<A> const zero(0.f);
+  if (ok) *ok = good;
+  return select<A>(good, g, Vec3<A>{zero, zero, zero});
+}
+
+}  // namespace detail
+
+/// Ray clip against one hex per lane by its six bilinear face patches (see
+/// the file comment): [t_in, t_out] is the hull of all patch crossings on the
+/// full line, with the values and trilinear coordinates there. Rays parallel
+/// to a planar face meet it at most in its edges and are handled by the
+/// other faces. Flat (zero-volume) hexes yield t_in == t_out: no hit. NaN
+/// positions or a miss yield hit == false; hit lanes never carry NaN t.
+template <class A> inline HexClip<A> clip_hex(RayBatch<A> const& ray, CellCorners<A, 8> const& c) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  vfloat<A> const zero(0.f);
+  detail::HullAcc<A> acc{vfloat<A>(inf), vfloat<A>(-inf), zero, zero, {zero, zero, zero}, {zero, zero, zero}};
+  for (int f = 0; f < 6; ++f) {
+    detail::PatchCorner<A> q[4];
+    detail::canonical_patch(c, f, q);
+    detail::patch_hits(ray, q, acc);
+  }
+  HexClip<A> r;
+  r.t_in = acc.t_in, r.t_out = acc.t_out, r.s_in = acc.s_in, r.s_out = acc.s_out;
+  r.u_in = acc.u_in, r.u_out = acc.u_out;
+  r.hit = acc.t_in < acc.t_out;
+  return r;
+}
+
+/// Point containment and trilinear interpolation by Newton inversion of the
+/// trilinear map: start at the cell centre (u = v = w = 1/2: the first step
+/// is the inverse of the centre's affine approximation), at most
+/// hex_newton_cap iterations, converged when the step is below
+/// hex_newton_tol. Inside: converged and every coordinate within
+/// hex_inside_tolerance of [0,1]. When the iteration does not converge (cap
+/// reached, singular Jacobian of a flat hex, or an iterate more than 2.5 cell
+/// widths out: the point is far outside) the lane reports converged = false
+/// and inside = false; a caller that must not lose such points falls back to
+/// ref::locate (double, multi-start). The non-convergence rate on distorted
+/// hexes is measured in tests/test_cells_hex.cpp.
+template <class A> inline Located<A> locate_hex(PointBatch<A> const& pts, CellCorners<A, 8> const& c) {
+  Located<A> r;
+  r.param = detail::invert_hex(c, pts.p(), detail::centre<A>(), vmask<A>(true), hex_newton_cap, r.converged);
+  r.value = detail::trilerp<A>(c.s, r.param);
+  r.inside = r.converged && detail::in_unit_cube<A>(r.param, hex_inside_tolerance);
+  return r;
+}
+
+/// Analytic gradient of the trilinear field at trilinear coordinates `param`
+/// (e.g. Located::param): J^-T grad_uvw(s). Zero where the map is singular.
+template <class A> inline Vec3<A> gradient_hex(CellCorners<A, 8> const& c, Vec3<A> const& param) {
+  return detail::hex_world_gradient(c, param);
+}
+
+/// Central differences of the cell's trilinear field around world point `p`
+/// with step `h` (world units), the paper's shading normal source (§6.4).
+/// Each of the six samples is a Newton inversion warm-started at `param`
+/// (p's trilinear coordinates); a sample whose inversion does not converge
+/// makes that component 0.
+template <class A>
+inline Vec3<A> gradient_central_hex(CellCorners<A, 8> const& c, Vec3<A> const& p, Vec3<A> const& param, float h) {
+  vfloat<A> const hv(h), zero(0.f), inv(0.5f / h);
+  auto value_at = [&](Vec3<A> const& x, vmask<A>& ok) {
+    Vec3<A> const u = detail::invert_hex(c, x, param, vmask<A>(true), hex_newton_cap, ok);
+    return detail::trilerp<A>(c.s, u);
+  };
+  auto diff = [&](Vec3<A> const& e) {
+    vmask<A> ok1, ok2;
+    vfloat<A> const a = value_at(p + e, ok1), b = value_at(p - e, ok2);
+    return simd::select(ok1 && ok2, (a - b) * inv, zero);
+  };
+  return {diff({hv, zero, zero}), diff({zero, hv, zero}), diff({zero, zero, hv})};
+}
+
+namespace detail {
+
+template <class A> struct Cubic {
+  vfloat<A> c0, c1, c2, c3;
+  vfloat<A> operator()(vfloat<A> const& x) const { return ((c3 * x + c2) * x + c1) * x + c0; }
+  vfloat<A> slope(vfloat<A> const& x) const { return (vfloat<A>(3.f) * c3 * x + vfloat<A>(2.f) * c2) * x + c1; }
+};
+
+/// The cubic through (0, f0), (1/3, f1), (2/3, f2), (1, f3) (Newton forward
+/// differences, step 1/3).
+template <class A> inline Cubic<A> cubic_through(vfloat<A> f0, vfloat<A> f1, vfloat<A> f2, vfloat<A> f3) {
+  vfloat<A> const d1 = f1 - f0, d2 = f2 - vfloat<A>(2.f) * f1 + f0;
+  vfloat<A> const d3 = f3 - vfloat<A>(3.f) * f2 + vfloat<A>(3.f) * f1 - f0;
+  return {f0, vfloat<A>(3.f) * d1 - vfloat<A>(1.5f) * d2 + d3, vfloat<A>(4.5f) * (d2 - d3), vfloat<A>(4.5f) * d3};
+}
+
+/// The first crossing (f >= 0 predicate change) of the cubic in [0,1], with
+/// the values at 0 and 1 given exactly (canonical face values). Splits
+/// [0,1] at the cubic's extrema (Marmitt et al. 2004) into monotone pieces,
+/// takes the first piece whose ends differ, and polishes there with a
+/// bisection-safeguarded Newton iteration. `lo_out`/`hi_out` return that
+/// piece (for world-space refinement).
+template <class A>
+inline vfloat<A> first_cubic_root(Cubic<A> const& p, vfloat<A> const& f0, vfloat<A> const& f3, vmask<A>& found,
+                                  vfloat<A>& lo_out, vfloat<A>& hi_out) {
+  vfloat<A> const zero(0.f), one(1.f);
+  // Extrema: roots of 3 c3 x^2 + 2 c2 x + c1, stable form.
+  vfloat<A> const A2 = vfloat<A>(3.f) * p.c3, B2 = vfloat<A>(2.f) * p.c2;
+  vfloat<A> const disc = B2 * B2 - vfloat<A>(4.f) * A2 * p.c1;
+  vfloat<A> const sq = simd::sqrt(simd::max(disc, zero));
+  vfloat<A> const q = vfloat<A>(-0.5f) * (B2 + simd::select(B2 >= zero, sq, zero - sq));
+  vmask<A> const has = disc > zero;
+  vfloat<A> r1 = simd::select(A2 == zero, zero - p.c1 / B2, q / A2);
+  vfloat<A> r2 = p.c1 / q;
+  // Invalid roots (no real extrema, 0/0) collapse onto x = 1.
+  r1 = simd::select(has && !simd::isnan(r1), clamp01<A>(r1), one);
+  r2 = simd::select(has && !simd::isnan(r2) && !(A2 == zero), clamp01<A>(r2), one);
+  vfloat<A> const e1 = simd::min(r1, r2), e2 = simd::max(r1, r2);
+  auto val = [&](vfloat<A> const& x) {
+    return simd::select(x <= zero, f0, simd::select(x >= one, f3, p(x)));
+  };
+  vfloat<A> const g1 = val(e1), g2 = val(e2);
+  vmask<A> const a0 = f0 >= zero, a1 = g1 >= zero, a2 = g2 >= zero, a3 = f3 >= zero;
+  vmask<A> const p0 = mask_xor<A>(a0, a1), p1 = mask_xor<A>(a1, a2), p2 = mask_xor<A>(a2, a3);
+  found = p0 || p1 || p2;
+  vfloat<A> lo = simd::select(p0, zero, simd::select(p1, e1, e2));
+  vfloat<A> hi = simd::select(p0, e1, simd::select(p1, e2, one));
+  vfloat<A> flo = simd::select(p0, f0, simd::select(p1, g1, g2));
+  vfloat<A> fhi = simd::select(p0, g1, simd::select(p1, g2, f3));
+  lo_out = lo, hi_out = hi;
+  // Start at the secant point, then Newton kept inside the bracket.
+  vfloat<A> den = fhi - flo;
+  vfloat<A> x = lo + clamp01<A>(simd::select(den == zero, vfloat<A>(0.5f), -flo / den)) * (hi - lo);
+  for (int it = 0; it < 8; ++it) {
+    vfloat<A> const fx = p(x);
+    vmask<A> const same_lo = !mask_xor<A>(fx >= zero, flo >= zero);
+    lo = simd::select(same_lo, x, lo);
+    flo = simd::select(same_lo, fx, flo);
+    hi = simd::select(same_lo, hi, x);
+    fhi = simd::select(same_lo, fhi, fx);
+    vfloat<A> const nx = x - fx / p.slope(x);
+    vmask<A> const inside = nx > lo && nx < hi;  // false for NaN
+    x = simd::select(inside, nx, vfloat<A>(0.5f) * (lo + hi));
+  }
+  return x;
+}
+
+}  // namespace detail
+
+/// Exact-method isosurface root in a hex (see the file comment): the first
+/// crossing along the ray of any of `count` isovalues (shared by all lanes),
+/// nearest wins, ties to the lower index. The hit decision uses the clip's
+/// canonical end values plus the cubic's extrema, so crossings are neither
+/// lost nor doubled between neighbours, and a pair of crossings inside one
+/// cell (double root, grazing ray) is found when the cubic shows it.
+/// `refine_steps` world-space Newton steps (0 = the cubic's root only; each
+/// step is one warm-started trilinear inversion of 3 iterations) stay inside
+/// the isolated bracket. Cells with a NaN corner value never hit; hits never
+/// carry NaN.
+template <class A>
+inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip, CellCorners<A, 8> const& c,
+                              float const* isovalues, int count, int refine_steps = 2) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
+  vmask<A> const valid = clip.hit && !has_nan_value(c);
+  if (simd::none(valid)) return h;
+  Vec3<A> const du = clip.u_out - clip.u_in;
+  vfloat<A> const v1 = detail::trilerp<A>(c.s, clip.u_in + vfloat<A>(1.f / 3.f) * du);
+  vfloat<A> const v2 = detail::trilerp<A>(c.s, clip.u_in + vfloat<A>(2.f / 3.f) * du);
+  vfloat<A> const dt = clip.t_out - clip.t_in;
+  Vec3<A> const o = ray.origin(), d = ray.dir();
+  for (int k = 0; k < count; ++k) {
+    vfloat<A> const iso(isovalues[k]);
+    vfloat<A> const f0 = clip.s_in - iso, f3 = clip.s_out - iso;
+    detail::Cubic<A> const cubic = detail::cubic_through<A>(f0, v1 - iso, v2 - iso, f3);
+    vmask<A> found;
+    vfloat<A> lo, hi;
+    vfloat<A> const lam = detail::first_cubic_root(cubic, f0, f3, found, lo, hi);
+    found = found && valid;
+    if (simd::none(found)) continue;
+    vfloat<A> t = clip.t_in + lam * dt;
+    if (refine_steps > 0) {
+      vfloat<A> const t_lo = clip.t_in + lo * dt, t_hi = clip.t_in + hi * dt;
+      Vec3<A> u = clip.u_in + lam * du;
+      for (int s = 0; s < refine_steps; ++s) {
+        vmask<A> conv;
+        u = detail::invert_hex(c, o + t * d, u, found, 3, conv);
+        vmask<A> gok;
+        Vec3<A> const g = detail::hex_world_gradient(c, u, &gok);
+        vfloat<A> const f = detail::trilerp<A>(c.s, u) - iso;
+        vfloat<A> const nt = t - f / dot(g, d);
+        vmask<A> const take = found && gok && nt >= t_lo && nt <= t_hi;  // false for NaN
+        t = simd::select(take, nt, t);
+      }
+    }
+    vmask<A> const better = found && t < h.t;
+    h.t = simd::select(better, t, h.t);
+    h.iso_index = simd::select(simd::to_int_mask(better), vint<A>(k), h.iso_index);
+    h.hit = h.hit || better;
+  }
+  return h;
+}
+
+/// Neubauer's method with `steps` rounds (paper Fig. 5, N = 2 there) on the
+/// field along the parametric segment between the clip's entry and exit. A
+/// hit needs end values on opposite sides of the isovalue, so a pair of
+/// crossings inside one cell is missed and with three crossings any one may
+/// be returned (measured in tests/test_cells_hex.cpp). Same hit/NaN rules as
+/// iso_root_hex otherwise.
+template <class A>
+inline CellIsoHit<A> iso_root_hex_neubauer(HexClip<A> const& clip, CellCorners<A, 8> const& c, float const* isovalues,
+                                       int count, int steps) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
+  vmask<A> const valid = clip.hit && !has_nan_value(c);
+  Vec3<A> const du = clip.u_out - clip.u_in;
+  for (int k = 0; k < count; ++k) {
+    vfloat<A> const iso(isovalues[k]);
+    vmask<A> const cross = valid && detail::mask_xor<A>(clip.s_in >= iso, clip.s_out >= iso);
+    if (simd::none(cross)) continue;
+    auto f = [&](vfloat<A> const& lam) { return detail::trilerp<A>(c.s, clip.u_in + lam * du) - iso; };
+    vfloat<A> const lam =
+        detail::neubauer<A>(f, vfloat<A>(0.f), vfloat<A>(1.f), clip.s_in - iso, clip.s_out - iso, steps);
+    vfloat<A> const t = clip.t_in + lam * (clip.t_out - clip.t_in);
+    vmask<A> const better = cross && t < h.t;
+    h.t = simd::select(better, t, h.t);
+    h.iso_index = simd::select(simd::to_int_mask(better), vint<A>(k), h.iso_index);
+    h.hit = h.hit || better;
+  }
+  return h;
+}
+
+}  // namespace CELLRAY_ISA_NS
+}  // namespace cellray

@@ -1,0 +1,268 @@
+#pragma once
+// Tetrahedron kernels, float SIMD, one lane per ray or point (Rathke 2015
+// §6.4, §7, Fig. 5, Fig. 8). Scalar double oracle: cells/reference.hpp.
+//
+// Face model: the plane through the face's three corners, taken in ascending
+// global vertex id order (CellCorners<A,4> from the loaders is sorted). Two
+// tets sharing a face thus compute the same plane normal, the same ray
+// parameter t and the same value at the crossing bit for bit: the exit of
+// one cell is the entry of the next, with no gap, no overlap, and no iso
+// crossing lost or counted twice (see iso_root_tet).
+
+#include <limits>
+
+#include "corners.hpp"
+
+namespace cellray {
+inline namespace CELLRAY_ISA_NS {
+
+/// The interval [t_in, t_out] of a ray's line inside a cell and the field
+/// values at its ends. `hit` only when t_in < t_out (a ray that touches a
+/// vertex, an edge, or a zero-volume cell has no interval). Values in lanes
+/// without a hit are unspecified. `s_in`/`s_out` are interpolated on the
+/// crossed face from that face's corners only, so neighbours agree exactly.
+template <class A> struct CellClip {
+  vfloat<A> t_in, t_out;
+  vfloat<A> s_in, s_out;
+  vmask<A> hit;
+};
+
+/// Point location result. `inside`: the point belongs to the cell (face ties
+/// resolved so that a point on a shared face belongs to exactly one of the
+/// two cells, see locate_tet / locate_hex). `value`: the interpolated field
+/// (NaN when a corner value is NaN; meaningful only where inside).
+/// `converged`: false only when hexahedron Newton inversion hit its iteration
+/// cap (always true for tets). `param`: tet barycentric weights of stored
+/// corners 1, 2, 3; hex trilinear coordinates (u, v, w) in [0,1]^3.
+template <class A> struct Located {
+  vmask<A> inside;
+  vmask<A> converged;
+  vfloat<A> value;
+  Vec3<A> param;
+};
+
+/// The nearest isosurface crossing in a cell: ray parameter, index into the
+/// caller's isovalue list, and a mask. Lanes without a hit have t = +inf and
+/// index -1. A hit never has a NaN t.
+template <class A> struct CellIsoHit {
+  vfloat<A> t;
+  vint<A> iso_index;
+  vmask<A> hit;
+};
+
+namespace detail {
+
+/// Faces of a tet as corner triples in ascending stored order, and the
+/// corner opposite each.
+inline constexpr int tet_faces[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+
+/// One face plane: its first corner, normal (b-a)x(c-a) from the canonical
+/// order, and side = dot(n, opposite - a): its sign says on which side of the
+/// plane the cell lies; |side| = 6 x volume.
+template <class A> struct TetFace {
+  Vec3<A> a, e1, e2, n;
+  vfloat<A> side;
+};
+
+template <class A> inline TetFace<A> tet_face(CellCorners<A, 4> const& c, int f) {
+  TetFace<A> F;
+  F.a = c.p(tet_faces[f][0]);
+  F.e1 = c.p(tet_faces[f][1]) - F.a;
+  F.e2 = c.p(tet_faces[f][2]) - F.a;
+  F.n = cross(F.e1, F.e2);
+  F.side = dot(F.n, c.p(f) - F.a);
+  return F;
+}
+
+template <class A> inline vmask<A> mask_xor(vmask<A> const& a, vmask<A> const& b) { return (a && !b) || (!a && b); }
+
+template <class A> inline vfloat<A> clamp01(vfloat<A> const& x) {
+  return simd::min(simd::max(x, vfloat<A>(0.f)), vfloat<A>(1.f));  // NaN -> 0
+}
+
+/// Neubauer et al. 2002 as in Rathke 2015 Fig. 5: `steps` rounds of linear
+/// interpolation between bracket ends, keeping the end whose sign differs.
+/// `f(t)` returns value - iso; f0, f1 are its values at t0, t1 and differ in
+/// sign (f >= 0 counts as above). The result lies in [t0, t1].
+template <class A, class F>
+inline vfloat<A> neubauer(F const& f, vfloat<A> t0, vfloat<A> t1, vfloat<A> f0, vfloat<A> f1, int steps) {
+  auto interp = [&]() {
+    vfloat<A> const den = f1 - f0;
+    vfloat<A> const lam = clamp01<A>(simd::select(den == vfloat<A>(0.f), vfloat<A>(0.5f), -f0 / den));
+    return t0 + lam * (t1 - t0);
+  };
+  for (int i = 0; i < steps; ++i) {
+    vfloat<A> const t = interp();
+    vfloat<A> const v = f(t);
+    vmask<A> const same = !mask_xor<A>(v >= vfloat<A>(0.f), f0 >= vfloat<A>(0.f));
+    t0 = simd::select(same, t, t0);
+    f0 = simd::select(same, v, f0);
+    t1 = simd::select(same, t1, t);
+    f1 = simd::select(same, f1, v);
+  }
+  return interp();
+}
+
+}  // namespace detail
+
+/// Ray clip against one tet per lane: four planes (paper Fig. 5, first
+/// loop). Entry is the largest t of the planes the ray enters through, exit
+/// the smallest t of those it leaves through; a ray parallel to a face plane
+/// (dot(n, dir) == 0 exactly) misses when its origin lies outside that plane.
+/// The interval is on the full line (t may be negative). Zero-volume tets
+/// never hit. No NaN reaches t_in/t_out of a hit lane.
+template <class A> inline CellClip<A> clip_tet(RayBatch<A> const& ray, CellCorners<A, 4> const& c) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  vfloat<A> const zero(0.f);
+  Vec3<A> const o = ray.origin(), d = ray.dir();
+  CellClip<A> r;
+  r.t_in = vfloat<A>(-inf), r.t_out = vfloat<A>(inf);
+  r.s_in = vfloat<A>(0.f), r.s_out = vfloat<A>(0.f);
+  vmask<A> ok(true);
+  for (int f = 0; f < 4; ++f) {
+    detail::TetFace<A> const F = detail::tet_face(c, f);
+    vfloat<A> const num = dot(F.n, F.a - o);
+    vfloat<A> const den = dot(F.n, d);
+    vfloat<A> const t = num / den;
+    // The value where the line crosses the plane, from this face's corners only.
+    Vec3<A> const rel = (o + t * d) - F.a;
+    vfloat<A> const nn = dot(F.n, F.n);
+    vfloat<A> const beta = dot(cross(rel, F.e2), F.n) / nn;
+    vfloat<A> const gamma = dot(cross(F.e1, rel), F.n) / nn;
+    vfloat<A> const sa = c.s[detail::tet_faces[f][0]];
+    vfloat<A> const s = sa + beta * (c.s[detail::tet_faces[f][1]] - sa) + gamma * (c.s[detail::tet_faces[f][2]] - sa);
+    vmask<A> const pos = F.side > zero;
+    vmask<A> const neg = F.side < zero;
+    vmask<A> const enter = (den > zero && pos) || (den < zero && neg);
+    vmask<A> const leave = (den > zero && neg) || (den < zero && pos);
+    vmask<A> const inside_plane = (pos && num <= zero) || (neg && num >= zero);
+    ok = ok && (pos || neg) && !(den == zero && !inside_plane);
+    vmask<A> const new_in = enter && t > r.t_in;
+    vmask<A> const new_out = leave && t < r.t_out;
+    r.t_in = simd::select(new_in, t, r.t_in);
+    r.s_in = simd::select(new_in, s, r.s_in);
+    r.t_out = simd::select(new_out, t, r.t_out);
+    r.s_out = simd::select(new_out, s, r.s_out);
+  }
+  r.hit = ok && r.t_in < r.t_out;
+  return r;
+}
+
+/// The tet's linear interpolant at `p`, extrapolated outside the cell.
+/// Returns value; `inside` gets the containment mask (see locate_tet).
+template <class A>
+inline vfloat<A> interpolate_tet(CellCorners<A, 4> const& c, Vec3<A> const& p, vmask<A>* inside = nullptr,
+                                 Vec3<A>* weights123 = nullptr) {
+  vfloat<A> const zero(0.f);
+  vfloat<A> value = zero;
+  vmask<A> in(true);
+  vfloat<A> w[4];
+  for (int f = 0; f < 4; ++f) {
+    detail::TetFace<A> const F = detail::tet_face(c, f);
+    vfloat<A> const dist = dot(F.n, p - F.a);
+    vmask<A> const pos = F.side > zero;
+    vmask<A> const neg = F.side < zero;
+    // Half-open: a point exactly on the plane belongs to the cell on the
+    // positive side of the canonical normal, so exactly one of two neighbours.
+    in = in && ((pos && dist >= zero) || (neg && dist < zero));
+    w[f] = dist / F.side;
+    value = value + w[f] * c.s[f];
+  }
+  if (inside) *inside = in;
+  if (weights123) *weights123 = {w[1], w[2], w[3]};
+  return value;
+}
+
+/// Point containment and linear interpolation (barycentric, paper Fig. 8).
+/// A point on a face shared by two tets belongs to exactly one of them (the
+/// one on the positive side of the face's canonical normal); zero-volume tets
+/// contain nothing. Only near edges and vertices can rounding of the four
+/// independent plane tests still assign a point to zero or two cells
+/// (measured in tests/test_cells_watertight.cpp).
+template <class A> inline Located<A> locate_tet(PointBatch<A> const& pts, CellCorners<A, 4> const& c) {
+  Located<A> r;
+  r.value = interpolate_tet(c, pts.p(), &r.inside, &r.param);
+  r.converged = vmask<A>(true);
+  return r;
+}
+
+/// Analytic gradient of the tet's linear field (constant in the cell):
+/// sum of s_i * grad(lambda_i), grad(lambda_i) = n_i / side_i. Zero for a
+/// zero-volume tet; NaN when a corner value is NaN.
+template <class A> inline Vec3<A> gradient_tet(CellCorners<A, 4> const& c) {
+  vfloat<A> const zero(0.f);
+  Vec3<A> g{zero, zero, zero};
+  vmask<A> ok(true);
+  for (int f = 0; f < 4; ++f) {
+    detail::TetFace<A> const F = detail::tet_face(c, f);
+    ok = ok && !(F.side == zero);
+    g = g + (c.s[f] / F.side) * F.n;
+  }
+  return select<A>(ok, g, Vec3<A>{zero, zero, zero});
+}
+
+/// Central differences of the tet's interpolant around `p` with step `h`
+/// (world units): the paper's shading normal source (§6.4). For a linear
+/// field it equals gradient_tet up to rounding; it exists so both methods
+/// can be compared on equal terms with hexes.
+template <class A> inline Vec3<A> gradient_central_tet(CellCorners<A, 4> const& c, Vec3<A> const& p, float h) {
+  vfloat<A> const hv(h), zero(0.f), inv(0.5f / h);
+  auto diff = [&](Vec3<A> const& e) {
+    return (interpolate_tet(c, p + e) - interpolate_tet(c, p - e)) * inv;
+  };
+  return {diff({hv, zero, zero}), diff({zero, hv, zero}), diff({zero, zero, hv})};
+}
+
+/// Exact isosurface root: the field is linear along the ray inside a tet, so
+/// the crossing of `isovalues[k]` is the linear interpolation between the
+/// clip's end values. A crossing exists when exactly one end value is
+/// >= iso (half-open, so along a ray through several cells each crossing is
+/// counted in exactly one cell, also when iso equals a vertex or face value).
+/// Constant cells and cells with a NaN corner value never hit. Several
+/// isovalues (all lanes share the list): the nearest crossing wins, ties go
+/// to the lower index.
+template <class A>
+inline CellIsoHit<A> iso_root_tet(CellClip<A> const& clip, CellCorners<A, 4> const& c, float const* isovalues, int count) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
+  vmask<A> const valid = clip.hit && !has_nan_value(c);
+  for (int k = 0; k < count; ++k) {
+    vfloat<A> const iso(isovalues[k]);
+    vmask<A> const cross = valid && detail::mask_xor<A>(clip.s_in >= iso, clip.s_out >= iso);
+    if (simd::none(cross)) continue;
+    vfloat<A> const lam = detail::clamp01<A>((iso - clip.s_in) / (clip.s_out - clip.s_in));
+    vfloat<A> const t = clip.t_in + lam * (clip.t_out - clip.t_in);
+    vmask<A> const better = cross && t < h.t;
+    h.t = simd::select(better, t, h.t);
+    h.iso_index = simd::select(simd::to_int_mask(better), vint<A>(k), h.iso_index);
+    h.hit = h.hit || better;
+  }
+  return h;
+}
+
+/// Neubauer's method with `steps` rounds (the paper uses 2) on the tet's
+/// interpolant along the ray. Same hit rule as iso_root_tet (endpoint signs);
+/// for the linear tet field it returns the same root up to rounding.
+template <class A>
+inline CellIsoHit<A> iso_root_tet_neubauer(RayBatch<A> const& ray, CellClip<A> const& clip, CellCorners<A, 4> const& c,
+                                       float const* isovalues, int count, int steps) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
+  vmask<A> const valid = clip.hit && !has_nan_value(c);
+  Vec3<A> const o = ray.origin(), d = ray.dir();
+  for (int k = 0; k < count; ++k) {
+    vfloat<A> const iso(isovalues[k]);
+    vmask<A> const cross = valid && detail::mask_xor<A>(clip.s_in >= iso, clip.s_out >= iso);
+    if (simd::none(cross)) continue;
+    auto f = [&](vfloat<A> const& t) { return interpolate_tet(c, o + t * d) - iso; };
+    vfloat<A> const t = detail::neubauer<A>(f, clip.t_in, clip.t_out, clip.s_in - iso, clip.s_out - iso, steps);
+    vmask<A> const better = cross && t < h.t;
+    h.t = simd::select(better, t, h.t);
+    h.iso_index = simd::select(simd::to_int_mask(better), vint<A>(k), h.iso_index);
+    h.hit = h.hit || better;
+  }
+  return h;
+}
+
+}  // namespace CELLRAY_ISA_NS
+}  // namespace cellray
