@@ -16,49 +16,12 @@
 namespace cellray {
 inline namespace CELLRAY_ISA_NS {
 
-/// Per-lane state of a first-hit query. `item` is the item-list position of
+/// Per-lane state of a first-hit query. `item` is the item-list slot of
 /// the hit cell (-1 none); t starts at tmax and only shrinks.
 template <class A> struct HitPacket {
   vfloat<A> t;
   vint<A> item;
   vint<A> iso;
-};
-
-/// Nearest crossing of any isovalue inside one (broadcast or gathered) tet,
-/// for t in [t_lo, t_hi). Returns the lanes that found one.
-template <class A>
-inline vmask<A> tet_first_crossing(Corners<A, 4> const& c, RayPacket<A> const& r, vmask<A> lanes,
-                                   vfloat<A> const& t_lo, vfloat<A> const& t_hi, IsoSet const& isos,
-                                   CellIsoOptions const&, vfloat<A>& t_best, vint<A>& iso_best) {
-  t_best = vfloat<A>(std::numeric_limits<float>::infinity());
-  iso_best = vint<A>(-1);
-  TetPlanes<A> const p = tet_planes(c);
-  vfloat<A> tin, tout;
-  vmask<A> m = lanes && clip_tet(r, p, tin, tout);
-  vfloat<A> const lo = simd::max(tin, t_lo), hi = simd::min(tout, t_hi);
-  m = m && lo <= hi;
-  if (simd::none(m)) return m;
-  vfloat<A> a, b;
-  tet_linear_along(r, p, c, a, b);
-  m = m && b != vfloat<A>(0.f);  // constant along the ray: no isolated crossing
-  vfloat<A> const inv_b = vfloat<A>(1.f) / simd::select(m, b, vfloat<A>(1.f));
-  vmask<A> found(false);
-  for (int k = 0; k < isos.count; ++k) {
-    vfloat<A> const t = (vfloat<A>(isos.values[k]) - a) * inv_b;
-    vmask<A> const ok = m && t >= lo && t <= hi && t < t_best && t < t_hi;
-    t_best = simd::select(ok, t, t_best);
-    iso_best = simd::select(simd::to_int_mask(ok), vint<A>(k), iso_best);
-    found = found || ok;
-  }
-  return found;
-}
-
-template <class A, int N> struct IsoCell;
-template <class A> struct IsoCell<A, 4> {
-  static vmask<A> crossing(Corners<A, 4> const& c, RayPacket<A> const& r, vmask<A> lanes, vfloat<A> const& lo,
-                           vfloat<A> const& hi, IsoSet const& isos, CellIsoOptions const& m, vfloat<A>& t, vint<A>& iso) {
-    return tet_first_crossing(c, r, lanes, lo, hi, isos, m, t, iso);
-  }
 };
 
 /// Uniform cell range test from the corner values (NaN: never).
@@ -101,11 +64,9 @@ template <class A, int N> struct FirstHitQuery {
     for (uint64_t i = first; i < first + count; ++i) {
       uint64_t const cell = tree.item(i);
       if (!cell_range_has_iso(mesh, cell, isos)) continue;
-      Corners<A, N> const c = load_corners<A>(mesh, cell);
-      vfloat<A> t;
-      vint<A> iso;
-      vmask<A> const f = IsoCell<A, N>::crossing(c, r, m, r.tmin, hit.t, isos, method, t, iso);
-      if (simd::any(f)) update(f, t, iso, vint<A>(int32_t(i)));
+      CellCorners<A, N> const c = broadcast_corners<A, N>(mesh, cell);
+      CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method);
+      if (simd::any(h.hit)) update(h.hit, h.t, h.iso_index, vint<A>(int32_t(i)));
     }
   }
 
@@ -117,11 +78,9 @@ template <class A, int N> struct FirstHitQuery {
       int const l = __builtin_ctz(b);
       cells[l] = int32_t(uint32_t(tree.item(uint64_t(uint32_t(s[l])))));
     }
-    Corners<A, N> const c = load_corners<A, N>(mesh, simd::load<A>(cells), m);
-    vfloat<A> t;
-    vint<A> iso;
-    vmask<A> const f = IsoCell<A, N>::crossing(c, r, m, r.tmin, hit.t, isos, method, t, iso);
-    update(f, t, iso, slots);
+    CellCorners<A, N> const c = gather_corners<A, N>(mesh, simd::load<A>(cells), m);
+    CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method);
+    update(h.hit, h.t, h.iso_index, slots);
   }
 
   void single(int lane, uint32_t node) {

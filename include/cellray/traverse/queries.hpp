@@ -30,12 +30,15 @@ struct IsoQuery {
 template <class Arch> struct FirstHitEntry {
   static void run(TreeView const& tree, TetMesh const& mesh, Ray const* rays, uint64_t n, IsoQuery const& q,
                   SurfaceHit* hits);
+  static void run(TreeView const& tree, HexMesh const& mesh, Ray const* rays, uint64_t n, IsoQuery const& q,
+                  SurfaceHit* hits);
 };
 CELLRAY_EXTERN_ENTRY(FirstHitEntry)
 
 /// Baseline-callable: dispatches to `isa` (default: `default_isa()`).
-inline std::vector<SurfaceHit> first_hits(TreeView const& tree, TetMesh const& mesh, std::vector<Ray> const& rays,
-                                      IsoQuery const& q, Isa isa = default_isa()) {
+template <int N>
+std::vector<SurfaceHit> first_hits(TreeView const& tree, CellMesh<N> const& mesh, std::vector<Ray> const& rays,
+                                   IsoQuery const& q, Isa isa = default_isa()) {
   std::vector<SurfaceHit> hits(rays.size());
   dispatch<FirstHitEntry>(isa, tree, mesh, rays.data(), uint64_t(rays.size()), q, hits.data());
   return hits;

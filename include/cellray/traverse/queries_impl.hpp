@@ -5,6 +5,7 @@
 
 #include <glm/geometric.hpp>
 
+#include "cell_ops.hpp"
 #include "first_hit.hpp"
 #include "queries.hpp"
 
@@ -12,20 +13,22 @@ namespace cellray {
 inline namespace CELLRAY_ISA_NS {
 namespace impl {
 
-/// Unit normal of the field at a hit, facing the ray origin.
+/// Central-difference step for a cell: 1% of its first edge, so the
+/// stencil stays (mostly) inside the cell the hit lies in.
+template <int N> inline float central_step(CellCorners<scalar, N> const& c) {
+  float const dx = c.x[1] - c.x[0], dy = c.y[1] - c.y[0], dz = c.z[1] - c.z[0];
+  return 0.01f * std::sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+/// Unit normal of the field at a hit, facing the ray origin (two-sided).
 template <int N>
-inline glm::vec3 hit_normal(CellMesh<N> const& mesh, uint64_t cell, Ray const& ray, float) {
-  Corners<scalar, N> const c = load_corners<scalar>(mesh, cell);
-  float gx, gy, gz;
-  if constexpr (N == 4) {
-    TetPlanes<scalar> const p = tet_planes(c);
-    gradient_tet(p, c, gx, gy, gz);
-  }
-  glm::vec3 n(gx, gy, gz);
-  float const len = std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
-  if (!(len > 0.f)) return -glm::normalize(ray.dir);
-  n /= len;
-  return (n.x * ray.dir.x + n.y * ray.dir.y + n.z * ray.dir.z) > 0.f ? -n : n;
+inline glm::vec3 hit_normal(CellMesh<N> const& mesh, uint64_t cell, Ray const& ray, float t, GradientMethod m) {
+  CellCorners<scalar, N> const c = broadcast_corners<scalar, N>(mesh, cell);
+  Vec3<scalar> const d{ray.dir.x, ray.dir.y, ray.dir.z};
+  Vec3<scalar> const p{ray.org.x + t * d.x, ray.org.y + t * d.y, ray.org.z + t * d.z};
+  Vec3<scalar> const g = CellOps<scalar, N>::gradient(c, p, m, central_step(c));
+  Vec3<scalar> const n = face_forward<scalar>(shading_normal<scalar>(g, d), d);
+  return {n.x, n.y, n.z};
 }
 
 template <class A, int N>
@@ -55,7 +58,7 @@ void first_hits(TreeView const& tree, CellMesh<N> const& mesh, Ray const* rays, 
         h.t = t[l];
         h.iso = iso[l];
         h.cell = tree.item(uint64_t(item[l]));
-        h.normal = hit_normal(mesh, h.cell, rays[base + uint64_t(l)], t[l]);
+        h.normal = hit_normal(mesh, h.cell, rays[base + uint64_t(l)], t[l], q.normals);
       }
       out[base + uint64_t(l)] = h;
     }
@@ -67,6 +70,11 @@ void first_hits(TreeView const& tree, CellMesh<N> const& mesh, Ray const* rays, 
 
 template <class Arch>
 void FirstHitEntry<Arch>::run(TreeView const& tree, TetMesh const& mesh, Ray const* rays, uint64_t n,
+                              IsoQuery const& q, SurfaceHit* hits) {
+  impl::first_hits<Arch>(tree, mesh, rays, n, q, hits);
+}
+template <class Arch>
+void FirstHitEntry<Arch>::run(TreeView const& tree, HexMesh const& mesh, Ray const* rays, uint64_t n,
                               IsoQuery const& q, SurfaceHit* hits) {
   impl::first_hits<Arch>(tree, mesh, rays, n, q, hits);
 }

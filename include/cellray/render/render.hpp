@@ -1,0 +1,138 @@
+#pragma once
+// The renderer: isosurfaces (Rathke 2015 §6, Fig. 1, 6) and direct volume
+// rendering (§7) of one or more meshes, tiles scheduled on TBB, each tile
+// rendered inside the ISA unit chosen at run time.
+//
+// A Scene is a list of parts; each part is a mesh view, a BVH built over it
+// and the value ranges of the array being shown (the BVH's own, or a refit
+// for another time step). Nothing here owns meshes or trees: the host keeps
+// them alive while a render runs. Everything is read-only during a render,
+// so any number of renders may run at once on the same parts.
+
+#include <cstdint>
+#include <vector>
+
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include "../bvh/node.hpp"
+#include "../cells/queries.hpp"
+#include "../dispatch/dispatch.hpp"
+#include "../mesh/cell_mesh.hpp"
+#include "../traverse/ray.hpp"
+#include "camera.hpp"
+#include "image.hpp"
+#include "transfer_function.hpp"
+
+namespace cellray {
+
+/// One mesh of a scene with its tree and the value ranges of its active array.
+template <int N> struct ScenePart {
+  CellMesh<N> mesh;
+  MinMaxBvh const* bvh = nullptr;
+  ValueRanges const* ranges = nullptr;  ///< nullptr: the BVH's own ranges
+};
+
+/// What is rendered: tetrahedral and hexahedral parts (e.g. the two halves of
+/// a mixed file, or the partitions of a simulation).
+struct Scene {
+  std::vector<ScenePart<4>> tets;
+  std::vector<ScenePart<8>> hexes;
+
+  Scene() = default;
+  Scene(TetMesh const& m, MinMaxBvh const& bvh, ValueRanges const* r = nullptr) { tets.push_back({m, &bvh, r}); }
+  Scene(HexMesh const& m, MinMaxBvh const& bvh, ValueRanges const* r = nullptr) { hexes.push_back({m, &bvh, r}); }
+
+  /// Bounds of every part's root box (empty parts ignored).
+  void bounds(glm::vec3& lo, glm::vec3& hi) const;
+  uint64_t cell_count() const;
+};
+
+/// One isosurface: isovalue, colour, opacity (1 = opaque; below 1 the ray
+/// continues behind the surface and composites front to back, Fig. 1).
+struct IsoSurface {
+  float value = 0.f;
+  glm::vec3 color{0.85f, 0.85f, 0.85f};
+  float opacity = 1.f;
+};
+
+/// Isosurface rendering. Changing any of this never rebuilds or refits.
+struct IsoParams {
+  std::vector<IsoSurface> surfaces;  ///< 1 to 8 isovalues
+  CellIsoOptions roots;              ///< exact roots (default) or Neubauer with N steps
+  GradientMethod normals = GradientMethod::analytic;  ///< or central differences (the paper's)
+  /// Lambert + Blinn-Phong with a headlight; `light_dir` (towards the light,
+  /// world space) is used for shadows; zero = the headlight.
+  glm::vec3 light_dir{0.f};
+  bool shadows = false;   ///< hard shadows from `light_dir` (or the headlight), through the same BVH
+  int ao_samples = 0;     ///< ambient-occlusion rays per hit (0: off)
+  float ao_radius = 0.f;  ///< world units; 0: 5% of the scene diagonal
+  float ambient = 0.2f, diffuse = 0.7f, specular = 0.25f, shininess = 40.f;
+  glm::vec4 background{1.f, 1.f, 1.f, 1.f};
+};
+
+/// How DVR finds values along a ray.
+enum class DvrMode {
+  samples,   ///< point samples at t0 + k * step, located through the BVH in groups (paper §7.2)
+  segments,  ///< the cells the ray crosses, integrated piece by piece (exact cell boundaries)
+};
+
+/// Direct volume rendering: emission-absorption, front to back (DESIGN.md).
+struct DvrParams {
+  TransferFunction tf;
+  float step = 0.f;       ///< world units between samples; 0: scene diagonal / 500
+  int group_size = 16;    ///< samples per ray per traversal, 1..32 (paper: 16)
+  DvrMode mode = DvrMode::samples;
+  bool empty_space_skipping = true;  ///< skip subtrees whose values map to zero opacity
+  float termination = 0.99f;         ///< stop a ray at this accumulated opacity
+  bool gradient_shading = false;     ///< Lambert shading by the field gradient (headlight)
+  glm::vec4 background{1.f, 1.f, 1.f, 1.f};
+};
+
+/// Where and how to run.
+struct RenderOptions {
+  Isa isa = default_isa();
+  Traversal traversal = Traversal::packet;  ///< primary rays
+  /// Shadow and AO rays are incoherent: SPMD is faster there (see README).
+  Traversal secondary_traversal = Traversal::spmd;
+  int hybrid_threshold = 0;  ///< 0: a quarter of the packet width
+  int tile_size = 32;        ///< pixels per tile side, scheduled on TBB
+};
+
+/// Pixel rectangle [x0, x0 + w) x [y0, y0 + h) of the camera's image.
+struct Tile {
+  int x0 = 0, y0 = 0, w = 0, h = 0;
+};
+
+/// Counters a render reports (summed over tiles).
+struct RenderStats {
+  uint64_t rays = 0;  ///< primary rays
+  uint64_t secondary_rays = 0;
+};
+
+/// Entry points per ISA (dispatch.hpp). `out` is the full image; only the
+/// tile's pixels are written.
+template <class Arch> struct RenderTileEntry {
+  static void iso(Scene const& scene, Camera const& cam, IsoParams const& p, RenderOptions const& o, Tile tile,
+                  Image& out);
+  static void dvr(Scene const& scene, Camera const& cam, DvrParams const& p, RenderOptions const& o, Tile tile,
+                  Image& out);
+};
+CELLRAY_EXTERN_ENTRY(RenderTileEntry)
+
+/// Renders the whole image with TBB (the calling thread's arena).
+/// @throws InvalidArgument for bad parameters (no or more than 8 isovalues,
+///         step <= 0 after defaults, group size outside 1..32, ...),
+///         InvalidMesh when a part has no values or no BVH.
+Image render_iso(Scene const& scene, Camera const& cam, IsoParams const& p, RenderOptions const& o = {});
+Image render_dvr(Scene const& scene, Camera const& cam, DvrParams const& p, RenderOptions const& o = {});
+
+/// One tile on the calling thread, for hosts with their own scheduler.
+void render_tile(Scene const& scene, Camera const& cam, IsoParams const& p, Tile tile, Image& out,
+                 RenderOptions const& o = {});
+void render_tile(Scene const& scene, Camera const& cam, DvrParams const& p, Tile tile, Image& out,
+                 RenderOptions const& o = {});
+
+}  // namespace cellray
+
+#include "render_api.inl"
