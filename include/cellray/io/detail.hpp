@@ -55,7 +55,7 @@ inline std::string read_file_bytes(std::string const& path) {
   return bytes;
 }
 
-inline std::string quoted(std::string_view s) { return "'" + std::string(s.substr(0, 80)) + (s.size() > 80 ? "...'" : "'"); }
+inline std::string in_quotes(std::string_view s) { return "'" + std::string(s.substr(0, 80)) + (s.size() > 80 ? "...'" : "'"); }
 
 inline char ascii_lower(char c) { return (c >= 'A' && c <= 'Z') ? char(c - 'A' + 'a') : c; }
 inline bool iequals(std::string_view a, std::string_view b) {
@@ -264,7 +264,7 @@ std::vector<T> parse_ascii_numbers(Source const& src, uint64_t& pos, uint64_t co
       char const* e = start;
       while (e < end && !is_space(*e) && e - start < 40) ++e;
       src.fail_line(uint64_t(start - base), what + ": value " + std::to_string(i) + " is " +
-                                                quoted(std::string_view(start, size_t(e - start))) + ", not " +
+                                                in_quotes(std::string_view(start, size_t(e - start))) + ", not " +
                                                 (std::is_same_v<T, double> ? "a number" : "an integer"));
     }
   }

@@ -22,7 +22,7 @@ inline UnstructuredGrid read_mesh(std::string const& path, ReadOptions const& op
       (dot == std::string::npos || path[dot] != '.') ? std::string_view() : std::string_view(path).substr(dot);
   if (io::iequals(ext, ".vtk")) return read_vtk_legacy(path, opts);
   if (io::iequals(ext, ".vtu")) return read_vtu(path, opts);
-  throw IoError(path + ": unsupported file extension " + (ext.empty() ? std::string("(none)") : io::quoted(ext)) +
+  throw IoError(path + ": unsupported file extension " + (ext.empty() ? std::string("(none)") : io::in_quotes(ext)) +
                 " (cellray reads .vtk and .vtu)");
 }
 
@@ -37,7 +37,7 @@ inline UnstructuredGrid read_mesh_from_memory(std::string_view bytes, std::strin
   if (io::iequals(ext, ".vtk")) return read_vtk_legacy_from_memory(bytes, name_for_errors, opts);
   if (io::iequals(ext, ".vtu")) return read_vtu_from_memory(bytes, name_for_errors, opts);
   throw IoError(name_for_errors + ": unsupported file extension " +
-                (ext.empty() ? std::string("(none)") : io::quoted(ext)) + " (cellray reads .vtk and .vtu)");
+                (ext.empty() ? std::string("(none)") : io::in_quotes(ext)) + " (cellray reads .vtk and .vtu)");
 }
 
 }  // namespace cellray

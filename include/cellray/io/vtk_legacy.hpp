@@ -86,7 +86,7 @@ class LegacyParser {
       else if (iequals(tok, "FIELD")) field();
       else if (iequals(tok, "METADATA")) skip_metadata();
       else if (attribute(tok, at)) continue;
-      else src_.fail_line(at, "unknown keyword " + quoted(tok));
+      else src_.fail_line(at, "unknown keyword " + in_quotes(tok));
     }
     return finish();
   }
@@ -145,7 +145,7 @@ class LegacyParser {
   uint64_t expect_count(std::string const& what) {
     std::string_view const tok = expect_token(what);
     uint64_t n = 0;
-    if (!parse_count(tok, n)) src_.fail_line(tok_pos_, what + " is " + quoted(tok) + ", not a count");
+    if (!parse_count(tok, n)) src_.fail_line(tok_pos_, what + " is " + in_quotes(tok) + ", not a count");
     return n;
   }
   void skip_line() {
@@ -171,12 +171,12 @@ class LegacyParser {
     skip_line();  // title
     std::string_view const enc = next_token();
     if (iequals(enc, "BINARY")) binary_ = true;
-    else if (!iequals(enc, "ASCII")) src_.fail_line(tok_pos_, "expected ASCII or BINARY, found " + quoted(enc));
+    else if (!iequals(enc, "ASCII")) src_.fail_line(tok_pos_, "expected ASCII or BINARY, found " + in_quotes(enc));
     std::string_view const ds = next_token();
-    if (!iequals(ds, "DATASET")) src_.fail_line(tok_pos_, "expected DATASET, found " + quoted(ds));
+    if (!iequals(ds, "DATASET")) src_.fail_line(tok_pos_, "expected DATASET, found " + in_quotes(ds));
     std::string_view const kind = next_token();
     if (!iequals(kind, "UNSTRUCTURED_GRID"))
-      src_.fail_line(tok_pos_, "dataset type " + quoted(kind) + " is not supported (cellray reads UNSTRUCTURED_GRID)");
+      src_.fail_line(tok_pos_, "dataset type " + in_quotes(kind) + " is not supported (cellray reads UNSTRUCTURED_GRID)");
   }
 
   /// The values of an array whose header ends the current line. Binary data
@@ -214,7 +214,7 @@ class LegacyParser {
     NumType t{};
     if (!legacy_type(tok, t, is_string)) {
       if (iequals(tok, "variant")) src_.fail_line(tok_pos_, what + ": variant arrays are not supported");
-      src_.fail_line(tok_pos_, what + ": unknown data type " + quoted(tok));
+      src_.fail_line(tok_pos_, what + ": unknown data type " + in_quotes(tok));
     }
     return t;
   }
@@ -282,10 +282,12 @@ class LegacyParser {
       new_layout_ = true;
       next_token();
       NumType const to = parse_numeric_type(expect_token("the OFFSETS type"), "OFFSETS");
+      if (!is_integer(to)) src_.fail_line(tok_pos_, "OFFSETS must have an integer type");
       offsets_ = read_values(to, a, "OFFSETS", true);
       std::string_view const k = expect_token("CONNECTIVITY");
-      if (!iequals(k, "CONNECTIVITY")) src_.fail_line(tok_pos_, "expected CONNECTIVITY after OFFSETS, found " + quoted(k));
+      if (!iequals(k, "CONNECTIVITY")) src_.fail_line(tok_pos_, "expected CONNECTIVITY after OFFSETS, found " + in_quotes(k));
       NumType const tc = parse_numeric_type(expect_token("the CONNECTIVITY type"), "CONNECTIVITY");
+      if (!is_integer(tc)) src_.fail_line(tok_pos_, "CONNECTIVITY must have an integer type");
       cells_ = read_values(tc, b, "CONNECTIVITY", true);
       ncells_ = a == 0 ? 0 : a - 1;
       check_offsets();
@@ -397,16 +399,16 @@ class LegacyParser {
     if (section_ == Section::none) src_.fail_line(at, std::string(tok) + " outside POINT_DATA / CELL_DATA");
     uint64_t const n = section_n();
     std::string const name = decode_vtk_name(expect_token(std::string(tok) + " name"));
-    std::string const what = std::string(tok) + " " + quoted(name);
+    std::string const what = std::string(tok) + " " + in_quotes(name);
     if (iequals(tok, "SCALARS")) {
       NumType const t = parse_numeric_type(expect_token(what + " type"), what);
       std::string_view key = expect_token("LOOKUP_TABLE");
       uint64_t ncomp = 1;
       if (!iequals(key, "LOOKUP_TABLE")) {
         if (!parse_count(key, ncomp) || ncomp < 1 || ncomp > 4)
-          src_.fail_line(tok_pos_, what + ": expected a component count (1 to 4) or LOOKUP_TABLE, found " + quoted(key));
+          src_.fail_line(tok_pos_, what + ": expected a component count (1 to 4) or LOOKUP_TABLE, found " + in_quotes(key));
         key = expect_token("LOOKUP_TABLE");
-        if (!iequals(key, "LOOKUP_TABLE")) src_.fail_line(tok_pos_, what + ": expected LOOKUP_TABLE, found " + quoted(key));
+        if (!iequals(key, "LOOKUP_TABLE")) src_.fail_line(tok_pos_, what + ": expected LOOKUP_TABLE, found " + in_quotes(key));
       }
       expect_token("the lookup table name");
       uint64_t count = 0;
@@ -449,10 +451,10 @@ class LegacyParser {
     std::string const fname = decode_vtk_name(expect_token("the FIELD name"));
     uint64_t const narrays = expect_count("the FIELD array count");
     for (uint64_t i = 0; i < narrays; ++i) {
-      std::string_view const tok = expect_token("FIELD " + quoted(fname) + " array " + std::to_string(i));
+      std::string_view const tok = expect_token("FIELD " + in_quotes(fname) + " array " + std::to_string(i));
       if (iequals(tok, "NULL_ARRAY")) continue;
       std::string const name = decode_vtk_name(tok);
-      std::string const what = "FIELD array " + quoted(name);
+      std::string const what = "FIELD array " + in_quotes(name);
       uint64_t const ncomp = expect_count(what + " component count");
       uint64_t const header = tok_pos_;
       uint64_t const ntuples = expect_count(what + " tuple count");
@@ -462,15 +464,15 @@ class LegacyParser {
       Located l;
       bool const numeric = read_any(expect_token(what + " type"), count, what, l);
       if (section_ == Section::none) {
-        ignore("field " + quoted(name) + " (dataset field data)");
+        ignore("field " + in_quotes(name) + " (dataset field data)");
       } else if (ntuples != section_n()) {
         src_.fail_line(header, what + " has " + std::to_string(ntuples) + " tuples but " +
                                    (section_ == Section::cell ? "CELL_DATA" : "POINT_DATA") + " declares " +
                                    std::to_string(section_n()));
       } else if (!numeric) {
-        ignore(std::string(section_name()) + " " + quoted(name) + " (strings)");
+        ignore(std::string(section_name()) + " " + in_quotes(name) + " (strings)");
       } else if (ncomp == 0) {
-        ignore(std::string(section_name()) + " " + quoted(name) + " (no components)");
+        ignore(std::string(section_name()) + " " + in_quotes(name) + " (no components)");
       } else {
         keep(name, std::move(l), int(ncomp));
       }

@@ -147,10 +147,10 @@ class VtuParser {
     if (!root) src_.fail_line(0, "not a VTK XML file (no VTKFile element)");
     std::string_view const type = root.attribute("type").value();
     if (type != "UnstructuredGrid")
-      src_.fail_line(offset(root), "VTK XML type " + quoted(type) + " is not supported (cellray reads UnstructuredGrid)");
+      src_.fail_line(offset(root), "VTK XML type " + in_quotes(type) + " is not supported (cellray reads UnstructuredGrid)");
     std::string_view const order = root.attribute("byte_order").value();
     if (order == "BigEndian") big_endian_ = true;
-    else if (!order.empty() && order != "LittleEndian") src_.fail_line(offset(root), "unknown byte_order " + quoted(order));
+    else if (!order.empty() && order != "LittleEndian") src_.fail_line(offset(root), "unknown byte_order " + in_quotes(order));
     uint16_t const one = 1;
     unsigned char b0;
     std::memcpy(&b0, &one, 1);
@@ -158,16 +158,16 @@ class VtuParser {
     std::string_view const header = root.attribute("header_type").value();
     if (header == "UInt64") header_size_ = 8;
     else if (!header.empty() && header != "UInt32")
-      src_.fail_line(offset(root), "unknown header_type " + quoted(header) + " (UInt32 or UInt64)");
+      src_.fail_line(offset(root), "unknown header_type " + in_quotes(header) + " (UInt32 or UInt64)");
     std::string_view const compressor = root.attribute("compressor").value();
     if (compressor == "vtkZLibDataCompressor") compressed_ = true;
     else if (!compressor.empty())
-      src_.fail_line(offset(root), "compressor " + quoted(compressor) + " is not supported (only vtkZLibDataCompressor)");
+      src_.fail_line(offset(root), "compressor " + in_quotes(compressor) + " is not supported (only vtkZLibDataCompressor)");
     if (appended_) {
       pugi::xml_node const app = root.child("AppendedData");
       std::string_view const enc = app.attribute("encoding").value();
       if (enc == "base64") appended_base64_ = true;
-      else if (enc != "raw") src_.fail_line(offset(app), "AppendedData encoding " + quoted(enc) + " (raw or base64 expected)");
+      else if (enc != "raw") src_.fail_line(offset(app), "AppendedData encoding " + in_quotes(enc) + " (raw or base64 expected)");
     }
 
     pugi::xml_node const ug = root.child("UnstructuredGrid");
@@ -225,7 +225,7 @@ class VtuParser {
     for (pugi::xml_node a : piece.child("PointData").children()) array(grid, a, np, false, kinds);
     for (pugi::xml_node a : piece.child("CellData").children()) array(grid, a, nc, true, kinds);
     for (pugi::xml_node a : ug.child("FieldData").children())
-      grid.report.arrays_ignored.push_back("field " + quoted(a.attribute("Name").value()) + " (dataset field data)");
+      grid.report.arrays_ignored.push_back("field " + in_quotes(a.attribute("Name").value()) + " (dataset field data)");
 
     std::string enc;
     for (auto const& f : formats_) enc += (enc.empty() ? "" : ", ") + f;
@@ -282,7 +282,7 @@ class VtuParser {
     while (!v.empty() && is_space(v.front())) v.remove_prefix(1);
     while (!v.empty() && is_space(v.back())) v.remove_suffix(1);
     uint64_t c = 0;
-    if (!parse_count(v, c)) src_.fail_line(offset(n), std::string(name) + " is " + quoted(a.value()) + ", not a count");
+    if (!parse_count(v, c)) src_.fail_line(offset(n), std::string(name) + " is " + in_quotes(a.value()) + ", not a count");
     return c;
   }
   int components(pugi::xml_node n) const {
@@ -327,7 +327,7 @@ class VtuParser {
   NumArray decode(pugi::xml_node el, uint64_t expected, std::string const& what) {
     NumType t{};
     std::string_view const tname = el.attribute("type").value();
-    if (!xml_type(tname, t)) src_.fail_line(offset(el), what + ": unknown DataArray type " + quoted(tname));
+    if (!xml_type(tname, t)) src_.fail_line(offset(el), what + ": unknown DataArray type " + in_quotes(tname));
     std::string_view const format = el.attribute("format").value();
     if (format == "ascii" || format.empty()) {
       formats_.insert("ascii");
@@ -353,11 +353,11 @@ class VtuParser {
       pugi::xml_attribute const oa = el.attribute("offset");
       uint64_t off = 0;
       if (!oa || !parse_count(oa.value(), off) || off > appended_end_ - appended_base_)
-        src_.fail_line(offset(el), what + ": missing or out-of-range offset " + quoted(oa.value()));
+        src_.fail_line(offset(el), what + ": missing or out-of-range offset " + in_quotes(oa.value()));
       ByteStream s(src_, appended_base_ + off, appended_end_, appended_base64_, what);
       return payload(s, t, expected, what);
     }
-    src_.fail_line(offset(el), what + ": unknown format " + quoted(format));
+    src_.fail_line(offset(el), what + ": unknown format " + in_quotes(format));
   }
 
   uint64_t count_tokens(uint64_t b, uint64_t e) const {
@@ -450,16 +450,16 @@ class VtuParser {
     if (name.empty()) name = std::string("unnamed_") + where + "_" + std::to_string(cell ? grid.cell_arrays.size() : grid.point_arrays.size());
     NumType t{};
     if (std::string_view(a.name()) != "DataArray" || !xml_type(a.attribute("type").value(), t)) {
-      grid.report.arrays_ignored.push_back(std::string(where) + " " + quoted(name) + " (" + a.name() + " of type " +
-                                           quoted(a.attribute("type").value()) + ")");
+      grid.report.arrays_ignored.push_back(std::string(where) + " " + in_quotes(name) + " (" + a.name() + " of type " +
+                                           in_quotes(a.attribute("type").value()) + ")");
       return;
     }
     int const ncomp = components(a);
     if (a.attribute("NumberOfTuples") && count_attr(a, "NumberOfTuples") != tuples)
-      src_.fail_line(offset(a), std::string(where) + " array " + quoted(name) + ": NumberOfTuples is not " + std::to_string(tuples));
+      src_.fail_line(offset(a), std::string(where) + " array " + in_quotes(name) + ": NumberOfTuples is not " + std::to_string(tuples));
     uint64_t count = 0;
-    if (!checked_mul(tuples, uint64_t(ncomp), count)) src_.fail_line(offset(a), quoted(name) + ": too many values");
-    NumArray const data = decode(a, count, std::string(where) + " array " + quoted(name));
+    if (!checked_mul(tuples, uint64_t(ncomp), count)) src_.fail_line(offset(a), in_quotes(name) + ": too many values");
+    NumArray const data = decode(a, count, std::string(where) + " array " + in_quotes(name));
     if (cell) add_cell_array(grid, std::move(name), data, ncomp, kinds);
     else add_point_array(grid, std::move(name), data, ncomp);
   }
