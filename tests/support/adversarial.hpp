@@ -73,9 +73,10 @@ inline glm::dvec3 unit_corner(int i) {
   return {double(u[i][0]), double(u[i][1]), double(u[i][2])};
 }
 
-enum class HexKind { jittered, twisted, nearly_flat, non_planar, inverted };
+enum class HexKind { parallelepiped, jittered, twisted, nearly_flat, non_planar, inverted };
 inline char const* hex_kind_name(HexKind k) {
   switch (k) {
+    case HexKind::parallelepiped: return "parallelepiped";
     case HexKind::jittered: return "jittered";
     case HexKind::twisted: return "twisted";
     case HexKind::nearly_flat: return "nearly flat";
@@ -87,6 +88,7 @@ inline char const* hex_kind_name(HexKind k) {
 
 /// One distorted hex (corners in VTK order, about unit size, placed and
 /// scaled randomly) of the given kind:
+/// - parallelepiped: an affine image of the unit cube (trilinear = exact cubic);
 /// - jittered: every corner moved up to 0.25;
 /// - twisted: top face rotated about the vertical axis by 30 to 80 degrees;
 /// - nearly flat: height 1e-3 to 1e-2 of the width;
@@ -96,6 +98,12 @@ inline char const* hex_kind_name(HexKind k) {
 inline void distorted_hex(Rng& rng, HexKind kind, glm::dvec3 p[8]) {
   for (int i = 0; i < 8; ++i) p[i] = unit_corner(i);
   switch (kind) {
+    case HexKind::parallelepiped: {
+      glm::dvec3 const a = glm::dvec3(1, 0, 0) + 0.4 * rng.in_box(-1, 1), b = glm::dvec3(0, 1, 0) + 0.4 * rng.in_box(-1, 1),
+                       c = glm::dvec3(0, 0, 1) + 0.4 * rng.in_box(-1, 1);
+      for (int i = 0; i < 8; ++i) p[i] = p[i].x * a + p[i].y * b + p[i].z * c;
+      break;
+    }
     case HexKind::jittered:
     case HexKind::inverted:
       for (int i = 0; i < 8; ++i) p[i] += 0.25 * rng.in_box(-1, 1);

@@ -14,15 +14,19 @@
 // total (non-convex hex with strongly curved faces) gets the hull of its
 // crossings as one interval.
 //
-// "Exact" iso roots for general hexes: the straight segment in parametric
-// space between the clip's entry and exit points carries the trilinear field
-// as a cubic in the segment parameter (exact when the hex is a parallelepiped,
-// where the ray's preimage is that segment). Its first root is isolated by
-// splitting at the cubic's extrema (Marmitt et al. 2004) and polished by a
-// safeguarded Newton iteration; then `refine_steps` world-space Newton steps
-// on value(o + t d) - iso (trilinear inversion at each step) move the root
-// onto the real ray inside the same bracket. Accuracy against the double
-// reference is measured in tests/test_cells_hex.cpp.
+// "Exact" iso roots for general hexes: the field along a world-space ray is a
+// cubic in t only when the hex is a parallelepiped (affine map); in general it
+// is not a polynomial. The method takes the cubic through the field's values
+// on the ray at t_in, t_in + dt/3, t_in + 2dt/3, t_out (ends: the clip's
+// canonical face values; interior: trilinear inversions warm-started on the
+// parametric segment between entry and exit), which is the exact field for
+// parallelepipeds. Its first root is isolated by splitting at the cubic's
+// extrema (Marmitt et al. 2004) and polished by a safeguarded Newton
+// iteration; then `refine_steps` world-space Newton steps on
+// value(o + t d) - iso (inversion at each step) move it onto the real ray's
+// root inside the same bracket. Accuracy and miss rates against the double
+// reference (dense bracketing + bisection) are measured in
+// tests/test_cells_hex.cpp.
 
 #include <limits>
 
@@ -383,10 +387,17 @@ inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip
   vmask<A> const valid = clip.hit && !has_nan_value(c);
   if (simd::none(valid)) return h;
   Vec3<A> const du = clip.u_out - clip.u_in;
-  vfloat<A> const v1 = detail::trilerp<A>(c.s, clip.u_in + vfloat<A>(1.f / 3.f) * du);
-  vfloat<A> const v2 = detail::trilerp<A>(c.s, clip.u_in + vfloat<A>(2.f / 3.f) * du);
   vfloat<A> const dt = clip.t_out - clip.t_in;
   Vec3<A> const o = ray.origin(), d = ray.dir();
+  // The field on the ray itself at 1/3 and 2/3: inversions warm-started on
+  // the parametric segment (exact points of the non-polynomial ray field).
+  auto on_ray = [&](float lam) {
+    vmask<A> conv;
+    Vec3<A> const u = detail::invert_hex(c, o + (clip.t_in + vfloat<A>(lam) * dt) * d,
+                                         clip.u_in + vfloat<A>(lam) * du, valid, 4, conv);
+    return detail::trilerp<A>(c.s, u);
+  };
+  vfloat<A> const v1 = on_ray(1.f / 3.f), v2 = on_ray(2.f / 3.f);
   for (int k = 0; k < count; ++k) {
     vfloat<A> const iso(isovalues[k]);
     vfloat<A> const f0 = clip.s_in - iso, f3 = clip.s_out - iso;
@@ -420,14 +431,48 @@ inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip
 }
 
 /// Neubauer's method with `steps` rounds (paper Fig. 5, N = 2 there) on the
-/// field along the parametric segment between the clip's entry and exit. A
+/// field at points of the ray (each a warm-started trilinear inversion). A
 /// hit needs end values on opposite sides of the isovalue, so a pair of
 /// crossings inside one cell is missed and with three crossings any one may
 /// be returned (measured in tests/test_cells_hex.cpp). Same hit/NaN rules as
 /// iso_root_hex otherwise.
 template <class A>
+inline CellIsoHit<A> iso_root_hex_neubauer(RayBatch<A> const& ray, HexClip<A> const& clip, CellCorners<A, 8> const& c,
+                                           float const* isovalues, int count, int steps) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
+  vmask<A> const valid = clip.hit && !has_nan_value(c);
+  Vec3<A> const du = clip.u_out - clip.u_in;
+  vfloat<A> const dt = clip.t_out - clip.t_in;
+  Vec3<A> const o = ray.origin(), d = ray.dir();
+  for (int k = 0; k < count; ++k) {
+    vfloat<A> const iso(isovalues[k]);
+    vmask<A> const cross = valid && detail::mask_xor<A>(clip.s_in >= iso, clip.s_out >= iso);
+    if (simd::none(cross)) continue;
+    // Paper Fig. 5 interpolates at points on the ray: invert each one
+    // (warm start on the parametric segment, 4 Newton iterations).
+    auto f = [&](vfloat<A> const& lam) {
+      vmask<A> conv;
+      Vec3<A> const u = detail::invert_hex(c, o + (clip.t_in + lam * dt) * d, clip.u_in + lam * du, cross, 4, conv);
+      return detail::trilerp<A>(c.s, u) - iso;
+    };
+    vfloat<A> const lam =
+        detail::neubauer<A>(f, vfloat<A>(0.f), vfloat<A>(1.f), clip.s_in - iso, clip.s_out - iso, steps);
+    vfloat<A> const t = clip.t_in + lam * (clip.t_out - clip.t_in);
+    vmask<A> const better = cross && t < h.t;
+    h.t = simd::select(better, t, h.t);
+    h.iso_index = simd::select(simd::to_int_mask(better), vint<A>(k), h.iso_index);
+    h.hit = h.hit || better;
+  }
+  return h;
+}
+
+/// Neubauer on the straight parametric segment between entry and exit
+/// (no inversions: cheaper, exact only for parallelepipeds). Kept for
+/// callers without the ray at hand; prefer the overload taking the ray.
+template <class A>
 inline CellIsoHit<A> iso_root_hex_neubauer(HexClip<A> const& clip, CellCorners<A, 8> const& c, float const* isovalues,
-                                       int count, int steps) {
+                                           int count, int steps) {
   constexpr float inf = std::numeric_limits<float>::infinity();
   CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
   vmask<A> const valid = clip.hit && !has_nan_value(c);

@@ -147,7 +147,7 @@ inline void run_iso(CellMesh<N> const& mesh, CellSelect const& sel, RayQuery con
     } else {
       HexClip<A> const k = clip_hex<A>(r, c);
       store_iso<A>(opt.method == CellIsoMethod::exact ? iso_root_hex<A>(r, k, c, iso, count, opt.refine_steps)
-                                                  : iso_root_hex_neubauer<A>(k, c, iso, count, opt.neubauer_steps),
+                                                  : iso_root_hex_neubauer<A>(r, k, c, iso, count, opt.neubauer_steps),
                    i, n, out);
     }
   }
