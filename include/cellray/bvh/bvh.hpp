@@ -1,0 +1,7 @@
+#pragma once
+// The min-max BVH stage in one include: node layout, builders, refit, stats.
+
+#include "build.hpp"
+#include "node.hpp"
+#include "refit.hpp"
+#include "stats.hpp"

@@ -1,0 +1,99 @@
+#pragma once
+// Time steps (Rathke 2015 §5.4, done differently): one tree for the
+// geometry, one `ValueRanges` per scalar array. A refit recomputes every
+// node's value range in O(n), in parallel, without touching bounds or
+// topology; switching time steps is then a pointer swap.
+
+#include <string>
+#include <vector>
+
+#include "build.hpp"
+
+namespace cellray {
+
+namespace detail {
+
+template <class Index>
+void fit_ranges_all(MinMaxBvh const& bvh, Index const* items, float const* vmin, float const* vmax, ValueRanges& out) {
+  out.resize(bvh.node_count());
+  if (bvh.empty()) {
+    out[0] = {inf_f, -inf_f};
+    return;
+  }
+  fit_ranges(bvh.nodes(), out.data(), vmin, vmax, items, 0, 0);
+}
+
+inline void fit_ranges_any(MinMaxBvh const& bvh, float const* vmin, float const* vmax, ValueRanges& out) {
+  if (bvh.wide_items()) fit_ranges_all(bvh, bvh.items64(), vmin, vmax, out);
+  else fit_ranges_all(bvh, bvh.items32(), vmin, vmax, out);
+}
+
+inline void refit_pieces(MinMaxBvh const& bvh, std::vector<MeshPiece> const& pieces, ValueRanges& out, Isa isa) {
+  auto const& offsets = bvh.piece_offsets();
+  if (pieces.size() != bvh.piece_count())
+    throw InvalidArgument("refit with " + std::to_string(pieces.size()) + " pieces of a BVH built over " +
+                          std::to_string(bvh.piece_count()));
+  for (size_t p = 0; p < pieces.size(); ++p)
+    if (pieces[p].cell_count() != offsets[p + 1] - offsets[p])
+      throw InvalidArgument("refit: piece " + std::to_string(p) + " has " + std::to_string(pieces[p].cell_count()) +
+                            " cells, the BVH was built over " + std::to_string(offsets[p + 1] - offsets[p]));
+  std::vector<float> vmin(bvh.item_count()), vmax(bvh.item_count());
+  for (size_t p = 0; p < pieces.size(); ++p)
+    pieces[p].visit([&](auto const& mesh) {
+      uint64_t const o = offsets[p];
+      tbb::parallel_for(tbb::blocked_range<uint64_t>(0, mesh.cell_count(), scan_block),
+                        [&](tbb::blocked_range<uint64_t> const& r) {
+                          dispatch<CellRanges>(isa, mesh, r.begin(), r.end(), vmin.data() + o + r.begin(),
+                                               vmax.data() + o + r.begin());
+                        });
+    });
+  fit_ranges_any(bvh, vmin.data(), vmax.data(), out);
+}
+
+}  // namespace detail
+
+/// Fills `out` with the value ranges of `bvh` for the active array of
+/// `pieces` (the same geometry and cell counts the tree was built over; the
+/// values may differ). Equal, bit for bit, to the ranges a rebuild with that
+/// array gives. Parallel; `out` is resized and its memory reused.
+/// @throws InvalidArgument when the pieces or cell counts differ from the build.
+inline void refit_ranges(MinMaxBvh const& bvh, std::vector<MeshPiece> const& pieces, ValueRanges& out,
+                         std::optional<Isa> isa = {}) {
+  detail::refit_pieces(bvh, pieces, out, isa ? *isa : default_isa());
+}
+inline ValueRanges refit_ranges(MinMaxBvh const& bvh, std::vector<MeshPiece> const& pieces, std::optional<Isa> isa = {}) {
+  ValueRanges r;
+  refit_ranges(bvh, pieces, r, isa);
+  return r;
+}
+/// Single-mesh forms of the above (`mesh.with_array("t1")` or `with_values`).
+inline void refit_ranges(MinMaxBvh const& bvh, TetMesh const& mesh, ValueRanges& out, std::optional<Isa> isa = {}) {
+  refit_ranges(bvh, std::vector<MeshPiece>{MeshPiece(mesh)}, out, isa);
+}
+inline void refit_ranges(MinMaxBvh const& bvh, HexMesh const& mesh, ValueRanges& out, std::optional<Isa> isa = {}) {
+  refit_ranges(bvh, std::vector<MeshPiece>{MeshPiece(mesh)}, out, isa);
+}
+inline ValueRanges refit_ranges(MinMaxBvh const& bvh, TetMesh const& mesh, std::optional<Isa> isa = {}) {
+  return refit_ranges(bvh, std::vector<MeshPiece>{MeshPiece(mesh)}, isa);
+}
+inline ValueRanges refit_ranges(MinMaxBvh const& bvh, HexMesh const& mesh, std::optional<Isa> isa = {}) {
+  return refit_ranges(bvh, std::vector<MeshPiece>{MeshPiece(mesh)}, isa);
+}
+
+/// Ranges from per-item ranges (item id i has [vmin[i], vmax[i]]; an empty
+/// range is vmin = +inf, vmax = -inf), for a tree built from item boxes.
+/// @throws InvalidArgument when a span's length is not the item count.
+inline void refit_ranges(MinMaxBvh const& bvh, Span<float> vmin, Span<float> vmax, ValueRanges& out) {
+  if (vmin.size != bvh.item_count() || vmax.size != bvh.item_count())
+    throw InvalidArgument("refit: " + std::to_string(vmin.size) + "/" + std::to_string(vmax.size) +
+                          " item ranges for a BVH of " + std::to_string(bvh.item_count()) + " items");
+  detail::fit_ranges_any(bvh, vmin.data, vmax.data, out);
+}
+
+/// Refits the BVH's own ranges in place (for a host with one time step at a
+/// time; concurrent renders must not read the BVH meanwhile).
+template <class MeshOrPieces> void refit_values(MinMaxBvh& bvh, MeshOrPieces const& mesh) {
+  bvh.set_ranges(refit_ranges(bvh, mesh));
+}
+
+}  // namespace cellray
