@@ -37,7 +37,7 @@ template <class A> struct CellOps<A, 8> {
   static CellIsoHit<A> iso(RayBatch<A> const& r, Clip const& k, CellCorners<A, 8> const& c, float const* isos,
                            int count, CellIsoOptions const& o) {
     return o.method == CellIsoMethod::exact ? iso_root_hex(r, k, c, isos, count, o.refine_steps)
-                                            : iso_root_hex_neubauer(k, c, isos, count, o.neubauer_steps);
+                                            : iso_root_hex_neubauer(r, k, c, isos, count, o.neubauer_steps);
   }
   static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 8> const& c) { return locate_hex(p, c); }
   static Vec3<A> gradient(CellCorners<A, 8> const& c, Vec3<A> const& p, GradientMethod m, float h) {

@@ -51,6 +51,7 @@ template <class A, int N> struct FirstHitQuery {
     for (int k = 0; k < isos.count; ++k) m = m || (vfloat<A>(isos.values[k]) >= vmin && vfloat<A>(isos.values[k]) <= vmax);
     return m;
   }
+  bool done() const { return false; }
   vfloat<A> t_lo() const { return r.tmin; }
   vfloat<A> t_hi() const { return hit.t; }
 

@@ -7,6 +7,7 @@
 
 #include "cell_ops.hpp"
 #include "first_hit.hpp"
+#include "sample.hpp"
 #include "queries.hpp"
 
 namespace cellray {
@@ -65,6 +66,25 @@ void first_hits(TreeView const& tree, CellMesh<N> const& mesh, Ray const* rays, 
   }
 }
 
+template <class A, int N>
+void sample_rays(TreeView const& tree, CellMesh<N> const& mesh, Ray const* rays, uint64_t n, float step, int per_ray,
+                 int group, Traversal how, ValueWindows const& windows, float* out) {
+  constexpr int W = width<A>;
+  int const threshold = std::max(1, W / 4);
+  for (uint64_t base = 0; base < n; base += W) {
+    int const cnt = int(std::min<uint64_t>(W, n - base));
+    RayPacket<A> const r = load_rays<A>(rays + base, cnt);
+    vmask<A> const lanes = simd::mask_from_bits<A>(cnt >= 32 ? ~0u : (1u << cnt) - 1u);
+    for (int k0 = 0; k0 < per_ray; k0 += group) {
+      int const g = std::min(group, per_ray - k0);
+      SampleQuery<A, N> q(tree, mesh, r, windows, r.tmin + vfloat<A>(step * float(k0)), step, g, lanes);
+      sample_group(q, lanes, how, threshold);
+      for (int l = 0; l < cnt; ++l)
+        for (int k = 0; k < g; ++k) out[(base + uint64_t(l)) * uint64_t(per_ray) + uint64_t(k0 + k)] = q.values[k][l];
+    }
+  }
+}
+
 }  // namespace impl
 }  // namespace CELLRAY_ISA_NS
 
@@ -79,4 +99,17 @@ void FirstHitEntry<Arch>::run(TreeView const& tree, HexMesh const& mesh, Ray con
   impl::first_hits<Arch>(tree, mesh, rays, n, q, hits);
 }
 
+}  // namespace cellray
+
+namespace cellray {
+template <class Arch>
+void SampleEntry<Arch>::run(TreeView const& tree, TetMesh const& mesh, Ray const* rays, uint64_t n, float step,
+                            int per_ray, int group, Traversal how, ValueWindows const& windows, float* out) {
+  impl::sample_rays<Arch>(tree, mesh, rays, n, step, per_ray, group, how, windows, out);
+}
+template <class Arch>
+void SampleEntry<Arch>::run(TreeView const& tree, HexMesh const& mesh, Ray const* rays, uint64_t n, float step,
+                            int per_ray, int group, Traversal how, ValueWindows const& windows, float* out) {
+  impl::sample_rays<Arch>(tree, mesh, rays, n, step, per_ray, group, how, windows, out);
+}
 }  // namespace cellray

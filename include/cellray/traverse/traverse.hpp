@@ -10,6 +10,7 @@
 //   vfloat<A> t_lo(), t_hi()                         per-lane interval to search
 //   void leaf(uint64_t first_slot, uint32_t count, vmask<A> lanes)
 //   void single(int lane, uint32_t node)             hybrid: finish one lane alone
+//   bool done()                                      true: stop early (all answers found)
 // and for SPMD:
 //   vmask<A> relevant(vfloat<A> vmin, vfloat<A> vmax)
 //   void leaf_items(vint<A> slots, vmask<A> lanes)  one item per lane
@@ -51,6 +52,7 @@ void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> activ
     }
     if (node.is_leaf()) {
       q.leaf(node.first_item(), node.item_count(), m);
+      if (q.done()) return;
       continue;
     }
     Node const& left = tree.nodes[node.left()];
@@ -136,6 +138,7 @@ void traverse_spmd(TreeView const& tree, RayPacket<A> const& r, vmask<A> active,
       vmask<A> const mk = leaf && simd::to_float_mask(vint<A>(k) < count);
       q.leaf_items(first + vint<A>(k), mk);
     }
+    if (q.done()) return;
   }
 }
 

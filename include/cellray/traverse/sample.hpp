@@ -1,0 +1,155 @@
+#pragma once
+// Volume samples along rays (Rathke 2015 §7): the value at t0 + g * step for
+// g in [0, G), located through the BVH with a backtracking stack; the G
+// samples of a ray share one traversal (§7.2). Samples outside the mesh (or
+// in cells with NaN values) stay NaN. ISA units only.
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+#include "cell_ops.hpp"
+#include "traverse.hpp"
+#include "tree_view.hpp"
+
+namespace cellray {
+
+/// Value intervals a sampling traversal may skip outside of: a subtree whose
+/// range [vmin, vmax] overlaps none of them holds nothing visible (e.g. the
+/// transfer function is transparent there: empty-space skipping).
+struct ValueWindows {
+  static constexpr int max_count = 16;
+  float lo[max_count] = {-std::numeric_limits<float>::infinity()};
+  float hi[max_count] = {std::numeric_limits<float>::infinity()};
+  int count = 1;  ///< default: everything
+
+  bool overlaps(float vmin, float vmax) const {
+    for (int k = 0; k < count; ++k)
+      if (vmin <= hi[k] && vmax >= lo[k]) return true;
+    return false;
+  }
+};
+
+inline constexpr int max_sample_group = 32;
+
+inline namespace CELLRAY_ISA_NS {
+
+/// One group of G samples per lane: t_g = t0 + g * step.
+template <class A, int N> struct SampleQuery {
+  static constexpr int W = width<A>;
+  TreeView const& tree;
+  CellMesh<N> const& mesh;
+  RayPacket<A> const& r;
+  ValueWindows const& windows;
+  vfloat<A> t0;      ///< first sample of the group, per lane
+  float step;
+  int group;         ///< G, 1..32
+  vfloat<A> t_first, t_last;  ///< search interval (first and last pending sample)
+  alignas(64) float values[max_sample_group][W];
+  uint32_t pending[max_sample_group];  ///< lanes still looking for sample g
+
+  SampleQuery(TreeView const& t, CellMesh<N> const& m, RayPacket<A> const& rays, ValueWindows const& w,
+              vfloat<A> const& first_t, float s, int g, vmask<A> const& active)
+      : tree(t), mesh(m), r(rays), windows(w), t0(first_t), step(s), group(g) {
+    uint32_t const bits = simd::movemask(active);
+    for (int k = 0; k < group; ++k) {
+      pending[k] = bits;
+      for (int l = 0; l < W; ++l) values[k][l] = std::numeric_limits<float>::quiet_NaN();
+    }
+    t_first = t0;
+    t_last = t0 + vfloat<A>(step * float(group - 1));
+  }
+
+  bool done() const {
+    uint32_t any = 0;
+    for (int k = 0; k < group; ++k) any |= pending[k];
+    return any == 0;
+  }
+  bool node_relevant(float vmin, float vmax) const { return vmin <= vmax && windows.overlaps(vmin, vmax); }
+  vmask<A> relevant(vfloat<A> const& vmin, vfloat<A> const& vmax) const {
+    vmask<A> m(false);
+    for (int k = 0; k < windows.count; ++k)
+      m = m || (vmin <= vfloat<A>(windows.hi[k]) && vmax >= vfloat<A>(windows.lo[k]));
+    return m && vmin <= vmax;
+  }
+  vfloat<A> t_lo() const { return t_first; }
+  vfloat<A> t_hi() const { return t_last; }
+
+  /// Samples of the lanes in `m` that fall in cell c (one cell per lane).
+  /// Containment and value come from point location (the kernels' face
+  /// rule gives a point on a shared face to exactly one cell). For groups,
+  /// the ray's clip interval, widened a little, first rules out the samples
+  /// that cannot be in the cell; single points skip the clip.
+  void visit(CellCorners<A, N> const& c, vmask<A> m) {
+    using Ops = CellOps<A, N>;
+    m = m && !has_nan_value(c);
+    vfloat<A> t_in(-std::numeric_limits<float>::infinity()), t_out(std::numeric_limits<float>::infinity());
+    if (group > 1) {
+      typename Ops::Clip const k = Ops::clip(ray_batch(r), c);
+      vfloat<A> const margin = vfloat<A>(1e-4f) * simd::abs(k.t_out - k.t_in) + vfloat<A>(1e-30f);
+      t_in = k.t_in - margin;
+      t_out = k.t_out + margin;
+      m = m && k.hit && t_out >= t_first && t_in <= t_last;
+    }
+    uint32_t const mb = simd::movemask(m);
+    if (!mb) return;
+    for (int g = 0; g < group; ++g) {
+      if (!(pending[g] & mb)) continue;
+      vfloat<A> const t = t0 + vfloat<A>(step * float(g));
+      vmask<A> in = m && simd::mask_from_bits<A>(pending[g]) && t >= t_in && t <= t_out;
+      if (simd::none(in)) continue;
+      Located<A> const loc = Ops::locate(PointBatch<A>{r.ox + t * r.dx, r.oy + t * r.dy, r.oz + t * r.dz}, c);
+      uint32_t const found = simd::movemask(in && loc.inside);
+      if (!found) continue;
+      alignas(64) float v[W];
+      simd::store(v, loc.value);
+      for (uint32_t b = found; b; b &= b - 1) values[g][__builtin_ctz(b)] = v[__builtin_ctz(b)];
+      pending[g] &= ~found;
+    }
+  }
+
+  void leaf(uint64_t first, uint32_t count, vmask<A> const& m) {
+    for (uint64_t i = first; i < first + count; ++i) {
+      uint64_t const cell = tree.item(i);
+      visit(broadcast_corners<A, N>(mesh, cell), m);
+    }
+  }
+
+  void leaf_items(vint<A> const& slots, vmask<A> const& m) {
+    alignas(64) int32_t s[W], cells[W];
+    simd::store(s, slots);
+    for (int l = 0; l < W; ++l) cells[l] = 0;
+    for (uint32_t b = simd::movemask(m); b; b &= b - 1) {
+      int const l = __builtin_ctz(b);
+      cells[l] = int32_t(uint32_t(tree.item(uint64_t(uint32_t(s[l])))));
+    }
+    visit(gather_corners<A, N>(mesh, simd::load<A>(cells), m), m);
+  }
+
+  void single(int lane, uint32_t node) {
+    RayPacket<scalar> const one = extract_lane(r, lane);
+    float const t0l = simd::to_array<A>(t0)[size_t(lane)];
+    SampleQuery<scalar, N> q1(tree, mesh, one, windows, t0l, step, group, true);
+    for (int g = 0; g < group; ++g) q1.pending[g] = (pending[g] >> lane) & 1u;
+    traverse_packet<scalar>(tree, one, true, q1, node);
+    for (int g = 0; g < group; ++g) {
+      if (((pending[g] >> lane) & 1u) && !q1.pending[g]) {
+        values[g][lane] = q1.values[g][0];
+        pending[g] &= ~(1u << lane);
+      }
+    }
+  }
+};
+
+/// Runs one group for the lanes in `active` with the chosen traversal.
+template <class A, int N>
+inline void sample_group(SampleQuery<A, N>& q, vmask<A> const& active, Traversal how, int hybrid_threshold) {
+  switch (how) {
+    case Traversal::packet: traverse_packet<A>(q.tree, q.r, active, q); break;
+    case Traversal::hybrid: traverse_packet<A>(q.tree, q.r, active, q, 0, hybrid_threshold); break;
+    case Traversal::spmd: traverse_spmd<A>(q.tree, q.r, active, q); break;
+  }
+}
+
+}  // namespace CELLRAY_ISA_NS
+}  // namespace cellray
