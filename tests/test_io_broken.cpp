@@ -96,7 +96,7 @@ Expect const corpus[] = {
     {"zlib_huge_claim.vtu", ": byte 332: ", "1200000000 bytes cannot come from 10 compressed bytes"},
     {"zlib_huge_block_count.vtu", ": byte 324: ", "4294967295 compressed blocks"},
     {"truncated_appended.vtu", ": byte 662: ", "48 bytes declared but at most 18 are left"},
-    {"appended_offset_out_of_range.vtu", ":6: ", "out-of-range offset '5000'"},
+    {"appended_offset_out_of_range.vtu", ":6: ", "offset 5000 lies beyond the appended data"},
     {"appended_missing.vtu", ":6: ", "no AppendedData"},
     {"appended_no_marker.vtu", ":16: ", "AppendedData must start with '_'"},
     {"appended_huge_header.vtu", ": byte 670: ", "1200000000 bytes declared"},

@@ -23,16 +23,23 @@ namespace cellray {
 namespace io {
 
 /// 0..63 for a base64 symbol, 64 for '=', 65 for whitespace, 255 otherwise.
-inline unsigned char base64_class(unsigned char c) {
-  if (c >= 'A' && c <= 'Z') return c - 'A';
-  if (c >= 'a' && c <= 'z') return c - 'a' + 26;
-  if (c >= '0' && c <= '9') return c - '0' + 52;
-  if (c == '+') return 62;
-  if (c == '/') return 63;
-  if (c == '=') return 64;
-  if (is_space(char(c))) return 65;
-  return 255;
-}
+struct Base64Table {
+  unsigned char cls[256];
+  constexpr Base64Table() : cls() {
+    for (int c = 0; c < 256; ++c) {
+      unsigned char k = 255;
+      if (c >= 'A' && c <= 'Z') k = (unsigned char)(c - 'A');
+      else if (c >= 'a' && c <= 'z') k = (unsigned char)(c - 'a' + 26);
+      else if (c >= '0' && c <= '9') k = (unsigned char)(c - '0' + 52);
+      else if (c == '+') k = 62;
+      else if (c == '/') k = 63;
+      else if (c == '=') k = 64;
+      else if (c == ' ' || c == '\n' || c == '\r' || c == '\t' || c == '\f' || c == '\v') k = 65;
+      cls[c] = k;
+    }
+  }
+};
+inline constexpr Base64Table base64_table{};
 
 /// Bytes of a DataArray payload: raw bytes of the file, or base64 text in it.
 /// The base64 decoder accepts several padded streams back to back, because
@@ -61,11 +68,27 @@ class ByteStream {
       return;
     }
     if (n > max_left()) truncated(n);
+    auto const* const text = reinterpret_cast<unsigned char const*>(src_.bytes.data());
     while (n > 0) {
       if (ipend_ < npend_) {
         *out++ = pend_[ipend_++];
         --n;
         continue;
+      }
+      if (n >= 3 && end_ - pos_ >= 4) {
+        // Fast path: four plain symbols straight to the output.
+        unsigned const a = base64_table.cls[text[pos_]], b = base64_table.cls[text[pos_ + 1]],
+                       c = base64_table.cls[text[pos_ + 2]], d = base64_table.cls[text[pos_ + 3]];
+        if ((a | b | c | d) < 64) {
+          uint32_t const bits = (a << 18) | (b << 12) | (c << 6) | d;
+          out[0] = static_cast<unsigned char>(bits >> 16);
+          out[1] = static_cast<unsigned char>(bits >> 8);
+          out[2] = static_cast<unsigned char>(bits);
+          out += 3;
+          n -= 3;
+          pos_ += 4;
+          continue;
+        }
       }
       quantum();
     }
@@ -84,7 +107,7 @@ class ByteStream {
     while (n < 4) {
       if (pos_ >= end_) src_.fail_byte(start, what_ + ": base64 data ends in the middle of a 4-character group");
       unsigned char const c = static_cast<unsigned char>(src_.bytes[pos_]);
-      unsigned char const k = base64_class(c);
+      unsigned char const k = base64_table.cls[c];
       if (k == 255) {
         std::string shown = (c >= 32 && c < 127) ? std::string("'") + char(c) + "'" : "byte " + std::to_string(int(c));
         src_.fail_byte(pos_, what_ + ": invalid base64 character " + shown);
@@ -306,7 +329,7 @@ class VtuParser {
       size_t e = src_.bytes.find('<', b);
       return {b, e == std::string_view::npos ? src_.bytes.size() : e};
     }
-    return {0, 0};
+    return {offset(el), offset(el)};  // no text: errors point at the element
   }
 
   uint64_t header_int(ByteStream& s) {
@@ -350,10 +373,9 @@ class VtuParser {
     if (format == "appended") {
       if (!appended_) src_.fail_line(offset(el), what + ": format=\"appended\" but the file has no AppendedData");
       formats_.insert(appended_base64_ ? "appended base64" : "appended raw");
-      pugi::xml_attribute const oa = el.attribute("offset");
-      uint64_t off = 0;
-      if (!oa || !parse_count(oa.value(), off) || off > appended_end_ - appended_base_)
-        src_.fail_line(offset(el), what + ": missing or out-of-range offset " + in_quotes(oa.value()));
+      uint64_t const off = count_attr(el, "offset");
+      if (off > appended_end_ - appended_base_)
+        src_.fail_line(offset(el), what + ": offset " + std::to_string(off) + " lies beyond the appended data");
       ByteStream s(src_, appended_base_ + off, appended_end_, appended_base64_, what);
       return payload(s, t, expected, what);
     }
