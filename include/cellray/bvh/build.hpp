@@ -49,23 +49,52 @@ inline void check_options(BuildOptions const& opt) {
     throw InvalidArgument("SAH costs must be traversal >= 0 and item > 0");
 }
 
-/// The smallest index whose box is not finite or has lo > hi, or n.
-inline uint64_t first_bad_box(ItemBox const* boxes, uint64_t n) {
-  return tbb::parallel_reduce(
-      tbb::blocked_range<uint64_t>(0, n, scan_block), n,
-      [&](tbb::blocked_range<uint64_t> const& r, uint64_t found) {
-        for (uint64_t i = r.begin(); i < r.end() && i < found; ++i) {
-          ItemBox const& b = boxes[i];
-          bool ok = true;
-          for (int k = 0; k < 3; ++k) ok = ok && std::isfinite(b.lo[k]) && std::isfinite(b.hi[k]) && b.lo[k] <= b.hi[k];
-          if (!ok) return i;
-        }
-        return found;
-      },
-      [](uint64_t a, uint64_t b) { return std::min(a, b); });
+/// What one pass over the item boxes finds: the first bad box and the
+/// bounds of the doubled centroids of all good ones.
+struct BoxScan {
+  uint64_t first_bad = std::numeric_limits<uint64_t>::max();  ///< index of a NaN/inf/inverted box
+  Box3 centroids;
+
+  void merge(BoxScan const& o) {
+    first_bad = std::min(first_bad, o.first_bad);
+    centroids.grow(o.centroids);
+  }
+};
+
+/// Scans boxes [b, e) (sequential; callers split).
+inline BoxScan scan_boxes(ItemBox const* boxes, uint64_t b, uint64_t e) {
+  BoxScan s;
+  for (uint64_t i = b; i < e; ++i) {
+    ItemBox const& x = boxes[i];
+    bool ok = true;
+    for (int k = 0; k < 3; ++k) ok = ok && std::isfinite(x.lo[k]) && std::isfinite(x.hi[k]) && x.lo[k] <= x.hi[k];
+    if (!ok) {
+      s.first_bad = std::min(s.first_bad, i);
+      continue;
+    }
+    float c[3];
+    centroid2(x, c);
+    s.centroids.grow_point(c);
+  }
+  return s;
 }
 
-template <class Index> MinMaxBvh build_tree(ItemBox const* boxes, uint64_t n, BuildOptions const& opt) {
+inline BoxScan scan_boxes_parallel(ItemBox const* boxes, uint64_t n) {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<uint64_t>(0, n, scan_block), BoxScan{},
+      [&](tbb::blocked_range<uint64_t> const& r, BoxScan acc) {
+        acc.merge(scan_boxes(boxes, r.begin(), r.end()));
+        return acc;
+      },
+      [](BoxScan a, BoxScan const& b) {
+        a.merge(b);
+        return a;
+      });
+}
+
+/// `cb`: bounds of the doubled centroids of all n boxes (from the scan).
+template <class Index>
+MinMaxBvh build_tree(ItemBox const* boxes, uint64_t n, Box3 const& cb, BuildOptions const& opt) {
   MinMaxBvh bvh;
   BvhAccess::set_info(bvh, sizeof(Index) == 8, opt.builder, opt.max_leaf_size, 0);
   BvhAccess::piece_offsets(bvh) = {0, n};
@@ -73,16 +102,15 @@ template <class Index> MinMaxBvh build_tree(ItemBox const* boxes, uint64_t n, Bu
   std::vector<Index> items(n);
   std::unique_ptr<Subtree> root;
   if (opt.builder == BvhBuilder::morton) {
-    std::vector<uint32_t> codes(n);
-    morton_order(boxes, n, items.data(), codes.data());
-    MortonSplitter<Index> s{codes.data(), opt.max_leaf_size};
+    std::unique_ptr<uint32_t[]> codes(new uint32_t[n]);
+    morton_order(boxes, n, cb, items.data(), codes.get());
+    MortonSplitter<Index> s{codes.get(), opt.max_leaf_size};
     root = build_upper(s, 0, n, 0, Box3{});
   } else {
     tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, scan_block), [&](tbb::blocked_range<uint64_t> const& r) {
       for (uint64_t i = r.begin(); i < r.end(); ++i) items[i] = Index(i);
     });
     std::vector<Index> scratch(n);
-    Box3 const cb = centroid_bounds(boxes, items.data(), 0, n);
     if (opt.builder == BvhBuilder::spatial_median) {
       MedianSplitter<Index> s{boxes, items.data(), scratch.data(), opt.max_leaf_size, opt.sah};
       root = build_upper(s, 0, n, 0, cb);
@@ -103,41 +131,62 @@ template <class Index> MinMaxBvh build_tree(ItemBox const* boxes, uint64_t n, Bu
   return bvh;
 }
 
-inline MinMaxBvh build_any(ItemBox const* boxes, uint64_t n, BuildOptions const& opt) {
-  if (opt.wide_items || n > uint64_t(std::numeric_limits<uint32_t>::max())) return build_tree<uint64_t>(boxes, n, opt);
-  return build_tree<uint32_t>(boxes, n, opt);
+inline MinMaxBvh build_any(ItemBox const* boxes, uint64_t n, Box3 const& cb, BuildOptions const& opt) {
+  if (opt.wide_items || n > uint64_t(std::numeric_limits<uint32_t>::max()))
+    return build_tree<uint64_t>(boxes, n, cb, opt);
+  return build_tree<uint32_t>(boxes, n, cb, opt);
 }
 
 inline double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-/// Throws InvalidMesh naming the first cell (of piece `piece`) with a vertex id out of range.
-template <int N> void check_indices(CellMesh<N> const& mesh, uint32_t piece) {
-  uint64_t const nv = mesh.vertex_count(), nc = mesh.cell_count();
-  uint64_t const bad = tbb::parallel_reduce(
-      tbb::blocked_range<uint64_t>(0, nc, scan_block), nc,
-      [&](tbb::blocked_range<uint64_t> const& r, uint64_t found) {
-        for (uint64_t c = r.begin(); c < r.end() && c < found; ++c)
-          for (int k = 0; k < N; ++k)
-            if (mesh.vertex(c, k) >= nv) return c;
-        return found;
-      },
-      [](uint64_t a, uint64_t b) { return std::min(a, b); });
-  if (bad == nc) return;
-  for (int k = 0; k < N; ++k)
-    if (mesh.vertex(bad, k) >= nv)
-      throw InvalidMesh("piece " + std::to_string(piece) + " cell " + std::to_string(bad) + " corner " +
-                        std::to_string(k) + " names vertex " + std::to_string(mesh.vertex(bad, k)) +
-                        " but the mesh has " + std::to_string(nv) + " vertices");
+/// First cell of [b, e) naming a vertex id >= the vertex count, or e.
+template <int N> uint64_t first_bad_cell(CellMesh<N> const& mesh, uint64_t b, uint64_t e) {
+  uint64_t const nv = mesh.vertex_count();
+  for (uint64_t c = b; c < e; ++c)
+    for (int k = 0; k < N; ++k)
+      if (mesh.vertex(c, k) >= nv) return c;
+  return e;
 }
 
-/// Boxes of every cell of `mesh` into out[0, cell_count), parallel.
-template <int N> void cell_boxes(CellMesh<N> const& mesh, ItemBox* out, Isa isa) {
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, mesh.cell_count(), scan_block),
-                    [&](tbb::blocked_range<uint64_t> const& r) {
-                      dispatch<CellBoxes>(isa, mesh, r.begin(), r.end(), out + r.begin());
-                    });
+/// One parallel pass over the cells of `mesh`: checks their vertex ids,
+/// writes their boxes to out[0, cell_count) with the SIMD `CellBoxes` and
+/// scans them. Throws InvalidMesh naming piece, cell (and corner) for a
+/// vertex id out of range; a bad box is returned in the scan.
+template <int N> BoxScan cell_boxes(CellMesh<N> const& mesh, ItemBox* out, Isa isa, uint32_t piece) {
+  uint64_t const nc = mesh.cell_count();
+  struct Part {
+    uint64_t bad_cell;
+    BoxScan scan;
+  };
+  Part const part = tbb::parallel_reduce(
+      tbb::blocked_range<uint64_t>(0, nc, scan_block), Part{nc, {}},
+      [&](tbb::blocked_range<uint64_t> const& r, Part acc) {
+        uint64_t const bad = first_bad_cell(mesh, r.begin(), r.end());
+        if (bad != r.end()) {  // never let the kernel read past the vertex arrays
+          acc.bad_cell = std::min(acc.bad_cell, bad);
+          return acc;
+        }
+        dispatch<CellBoxes>(isa, mesh, r.begin(), r.end(), out + r.begin());
+        BoxScan s = scan_boxes(out, r.begin(), r.end());
+        acc.scan.merge(s);
+        return acc;
+      },
+      [](Part a, Part const& b) {
+        a.bad_cell = std::min(a.bad_cell, b.bad_cell);
+        a.scan.merge(b.scan);
+        return a;
+      });
+  if (part.bad_cell != nc) {
+    uint64_t const c = part.bad_cell;
+    for (int k = 0; k < N; ++k)
+      if (mesh.vertex(c, k) >= mesh.vertex_count())
+        throw InvalidMesh("piece " + std::to_string(piece) + " cell " + std::to_string(c) + " corner " +
+                          std::to_string(k) + " names vertex " + std::to_string(mesh.vertex(c, k)) +
+                          " but the mesh has " + std::to_string(mesh.vertex_count()) + " vertices");
+  }
+  return part.scan;
 }
 
 inline MinMaxBvh build_pieces(std::vector<MeshPiece> const& pieces, BuildOptions const& opt) {
@@ -146,19 +195,23 @@ inline MinMaxBvh build_pieces(std::vector<MeshPiece> const& pieces, BuildOptions
   Isa const isa = opt.isa ? *opt.isa : default_isa();
   std::vector<uint64_t> offsets{0};
   for (auto const& p : pieces) offsets.push_back(offsets.back() + p.cell_count());
-  std::vector<ItemBox> boxes(offsets.back());
+  uint64_t const n = offsets.back();
+  std::unique_ptr<ItemBox[]> boxes(new ItemBox[n]);  // not zeroed: every entry is written
+  BoxScan scan;
   for (size_t p = 0; p < pieces.size(); ++p)
     pieces[p].visit([&](auto const& mesh) {
-      check_indices(mesh, uint32_t(p));
-      cell_boxes(mesh, boxes.data() + offsets[p], isa);
+      BoxScan s = cell_boxes(mesh, boxes.get() + offsets[p], isa, uint32_t(p));
+      if (s.first_bad != std::numeric_limits<uint64_t>::max()) s.first_bad += offsets[p];
+      scan.merge(s);
     });
-  uint64_t const bad = first_bad_box(boxes.data(), boxes.size());
-  if (bad != boxes.size()) {
+  if (scan.first_bad != std::numeric_limits<uint64_t>::max()) {
+    uint64_t const bad = scan.first_bad;
     auto const p = uint64_t(std::upper_bound(offsets.begin(), offsets.end(), bad) - offsets.begin() - 1);
     throw InvalidMesh("piece " + std::to_string(p) + " cell " + std::to_string(bad - offsets[p]) +
                       " has a non-finite vertex position (validate() names the vertex)");
   }
-  MinMaxBvh bvh = build_any(boxes.data(), boxes.size(), opt);
+  MinMaxBvh bvh = build_any(boxes.get(), n, scan.centroids, opt);
+  boxes.reset();
   BvhAccess::piece_offsets(bvh) = std::move(offsets);
   BvhAccess::set_seconds(bvh, seconds_since(t0));
   return bvh;
@@ -173,10 +226,10 @@ inline MinMaxBvh build_pieces(std::vector<MeshPiece> const& pieces, BuildOptions
 inline MinMaxBvh build_minmax_bvh(Span<ItemBox> boxes, BuildOptions const& opt = {}) {
   auto const t0 = std::chrono::steady_clock::now();
   detail::check_options(opt);
-  uint64_t const bad = detail::first_bad_box(boxes.data, boxes.size);
-  if (bad != boxes.size)
-    throw InvalidArgument("item " + std::to_string(bad) + " has a non-finite bound or lo > hi");
-  MinMaxBvh bvh = detail::build_any(boxes.data, boxes.size, opt);
+  detail::BoxScan const scan = detail::scan_boxes_parallel(boxes.data, boxes.size);
+  if (scan.first_bad != std::numeric_limits<uint64_t>::max())
+    throw InvalidArgument("item " + std::to_string(scan.first_bad) + " has a non-finite bound or lo > hi");
+  MinMaxBvh bvh = detail::build_any(boxes.data, boxes.size, scan.centroids, opt);
   detail::BvhAccess::set_seconds(bvh, detail::seconds_since(t0));
   return bvh;
 }

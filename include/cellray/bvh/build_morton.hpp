@@ -21,16 +21,18 @@ inline uint32_t spread_bits10(uint32_t v) noexcept {
   return v;
 }
 
-/// Stable LSD radix sort of `a` on the 30-bit `key(a[i])`, 3 passes of 10
-/// bits, parallel over fixed blocks (deterministic). `tmp` is scratch.
-template <class T, class Key> void radix_sort30(std::vector<T>& a, std::vector<T>& tmp, Key const& key) {
-  constexpr uint32_t radix = 1024;
+/// Bits per radix-sort digit: 10 bits, 3 passes over 30-bit codes.
+inline constexpr int radix_bits = 10;
+
+/// Stable LSD radix sort of a[0, n) on the 30-bit `key(a[i])`, parallel over
+/// fixed blocks (deterministic). `tmp` is scratch of n entries; returns the
+/// buffer (a or tmp) that holds the result.
+template <class T, class Key> T* radix_sort30(T* a, T* tmp, uint64_t n, Key const& key) {
+  constexpr uint32_t radix = uint32_t(1) << radix_bits;
   constexpr uint64_t block = uint64_t(1) << 16;
-  uint64_t const n = a.size();
-  tmp.resize(n);
   uint64_t const blocks = (n + block - 1) / block;
   std::vector<uint64_t> offset(blocks * radix);
-  for (int shift = 0; shift < 30; shift += 10) {
+  for (int shift = 0; shift < 30; shift += radix_bits) {
     tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& r) {
       for (uint64_t k = r.begin(); k < r.end(); ++k) {
         uint64_t* h = offset.data() + k * radix;
@@ -52,27 +54,15 @@ template <class T, class Key> void radix_sort30(std::vector<T>& a, std::vector<T
           tmp[o[(key(a[i]) >> shift) & (radix - 1)]++] = a[i];
       }
     });
-    a.swap(tmp);
+    std::swap(a, tmp);
   }
+  return a;
 }
 
 /// Fills items (sorted by Morton code of the item centroid) and codes (the
 /// sorted codes) for items 0..n-1.
-template <class Index> void morton_order(ItemBox const* boxes, uint64_t n, Index* items, uint32_t* codes) {
-  Box3 const cb = tbb::parallel_reduce(
-      tbb::blocked_range<uint64_t>(0, n, scan_block), Box3{},
-      [&](tbb::blocked_range<uint64_t> const& r, Box3 acc) {
-        for (uint64_t i = r.begin(); i < r.end(); ++i) {
-          float c[3];
-          centroid2(boxes[i], c);
-          acc.grow_point(c);
-        }
-        return acc;
-      },
-      [](Box3 x, Box3 const& y) {
-        x.grow(y);
-        return x;
-      });
+template <class Index>
+void morton_order(ItemBox const* boxes, uint64_t n, Box3 const& cb, Index* items, uint32_t* codes) {
   float const extent = std::max({cb.hi[0] - cb.lo[0], cb.hi[1] - cb.lo[1], cb.hi[2] - cb.lo[2]});
   float const scale = extent > 0.f ? 1024.f / extent : 0.f;
   auto code_of = [&](uint64_t i) {
@@ -83,26 +73,26 @@ template <class Index> void morton_order(ItemBox const* boxes, uint64_t n, Index
     return spread_bits10(q[0]) | spread_bits10(q[1]) << 1 | spread_bits10(q[2]) << 2;
   };
   if constexpr (sizeof(Index) == 4) {
-    std::vector<uint64_t> a(n), tmp;  // code << 32 | id
+    std::unique_ptr<uint64_t[]> a(new uint64_t[n]), tmp(new uint64_t[n]);  // code << 32 | id
     tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, scan_block), [&](tbb::blocked_range<uint64_t> const& r) {
       for (uint64_t i = r.begin(); i < r.end(); ++i) a[i] = uint64_t(code_of(i)) << 32 | i;
     });
-    radix_sort30(a, tmp, [](uint64_t x) { return uint32_t(x >> 32); });
+    uint64_t const* sorted = radix_sort30(a.get(), tmp.get(), n, [](uint64_t x) { return uint32_t(x >> 32); });
     tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, scan_block), [&](tbb::blocked_range<uint64_t> const& r) {
-      for (uint64_t i = r.begin(); i < r.end(); ++i) items[i] = Index(a[i]), codes[i] = uint32_t(a[i] >> 32);
+      for (uint64_t i = r.begin(); i < r.end(); ++i) items[i] = Index(sorted[i]), codes[i] = uint32_t(sorted[i] >> 32);
     });
   } else {
     struct Pair {
       uint32_t code;
       uint64_t id;
     };
-    std::vector<Pair> a(n), tmp;
+    std::unique_ptr<Pair[]> a(new Pair[n]), tmp(new Pair[n]);
     tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, scan_block), [&](tbb::blocked_range<uint64_t> const& r) {
       for (uint64_t i = r.begin(); i < r.end(); ++i) a[i] = {code_of(i), i};
     });
-    radix_sort30(a, tmp, [](Pair const& x) { return x.code; });
+    Pair const* sorted = radix_sort30(a.get(), tmp.get(), n, [](Pair const& x) { return x.code; });
     tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, scan_block), [&](tbb::blocked_range<uint64_t> const& r) {
-      for (uint64_t i = r.begin(); i < r.end(); ++i) items[i] = Index(a[i].id), codes[i] = a[i].code;
+      for (uint64_t i = r.begin(); i < r.end(); ++i) items[i] = Index(sorted[i].id), codes[i] = sorted[i].code;
     });
   }
 }
