@@ -393,29 +393,30 @@ uint32_t fit_bounds_and_ranges(Node* nodes, NodeRange* ranges, ItemBox const* bo
   return std::max(dl, dr);
 }
 
-/// Sets the value range of node `i` and everything below from per-item
-/// ranges (vmin[id], vmax[id]); bounds and topology untouched.
-template <class Index>
-void fit_ranges(Node const* nodes, NodeRange* ranges, float const* vmin, float const* vmax, Index const* items,
-                uint64_t i, uint32_t depth) {
+/// Sets the value range of node `i` and everything below from
+/// `item_range(id)` (a NodeRange per item id); bounds and topology untouched.
+template <class Index, class ItemRange>
+void fit_ranges(Node const* nodes, NodeRange* ranges, ItemRange const& item_range, Index const* items, uint64_t i,
+                uint32_t depth) {
   Node const& n = nodes[i];
   if (n.is_leaf()) {
     NodeRange r{inf_f, -inf_f};
     uint64_t const first = n.first_item();
     for (uint64_t s = first; s < first + n.item_count(); ++s) {
-      r.vmin = std::min(r.vmin, vmin[items[s]]);
-      r.vmax = std::max(r.vmax, vmax[items[s]]);
+      NodeRange const x = item_range(items[s]);
+      r.vmin = std::min(r.vmin, x.vmin);
+      r.vmax = std::max(r.vmax, x.vmax);
     }
     ranges[i] = r;
     return;
   }
   uint64_t const l = n.left(), rgt = n.right();
   if (depth < parallel_fit_depth) {
-    tbb::parallel_invoke([&] { fit_ranges(nodes, ranges, vmin, vmax, items, l, depth + 1); },
-                         [&] { fit_ranges(nodes, ranges, vmin, vmax, items, rgt, depth + 1); });
+    tbb::parallel_invoke([&] { fit_ranges(nodes, ranges, item_range, items, l, depth + 1); },
+                         [&] { fit_ranges(nodes, ranges, item_range, items, rgt, depth + 1); });
   } else {
-    fit_ranges(nodes, ranges, vmin, vmax, items, l, depth + 1);
-    fit_ranges(nodes, ranges, vmin, vmax, items, rgt, depth + 1);
+    fit_ranges(nodes, ranges, item_range, items, l, depth + 1);
+    fit_ranges(nodes, ranges, item_range, items, rgt, depth + 1);
   }
   ranges[i] = {std::min(ranges[l].vmin, ranges[rgt].vmin), std::max(ranges[l].vmax, ranges[rgt].vmax)};
 }

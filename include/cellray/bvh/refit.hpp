@@ -4,6 +4,7 @@
 // node's value range in O(n), in parallel, without touching bounds or
 // topology; switching time steps is then a pointer swap.
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -13,19 +14,19 @@ namespace cellray {
 
 namespace detail {
 
-template <class Index>
-void fit_ranges_all(MinMaxBvh const& bvh, Index const* items, float const* vmin, float const* vmax, ValueRanges& out) {
+template <class Index, class ItemRange>
+void fit_ranges_all(MinMaxBvh const& bvh, Index const* items, ItemRange const& item_range, ValueRanges& out) {
   out.resize(bvh.node_count());
   if (bvh.empty()) {
     out[0] = {inf_f, -inf_f};
     return;
   }
-  fit_ranges(bvh.nodes(), out.data(), vmin, vmax, items, 0, 0);
+  fit_ranges(bvh.nodes(), out.data(), item_range, items, 0, 0);
 }
 
-inline void fit_ranges_any(MinMaxBvh const& bvh, float const* vmin, float const* vmax, ValueRanges& out) {
-  if (bvh.wide_items()) fit_ranges_all(bvh, bvh.items64(), vmin, vmax, out);
-  else fit_ranges_all(bvh, bvh.items32(), vmin, vmax, out);
+template <class ItemRange> void fit_ranges_any(MinMaxBvh const& bvh, ItemRange const& item_range, ValueRanges& out) {
+  if (bvh.wide_items()) fit_ranges_all(bvh, bvh.items64(), item_range, out);
+  else fit_ranges_all(bvh, bvh.items32(), item_range, out);
 }
 
 inline void refit_pieces(MinMaxBvh const& bvh, std::vector<MeshPiece> const& pieces, ValueRanges& out, Isa isa) {
@@ -37,17 +38,22 @@ inline void refit_pieces(MinMaxBvh const& bvh, std::vector<MeshPiece> const& pie
     if (pieces[p].cell_count() != offsets[p + 1] - offsets[p])
       throw InvalidArgument("refit: piece " + std::to_string(p) + " has " + std::to_string(pieces[p].cell_count()) +
                             " cells, the BVH was built over " + std::to_string(offsets[p + 1] - offsets[p]));
-  std::vector<float> vmin(bvh.item_count()), vmax(bvh.item_count());
+  // Per-cell ranges with the SIMD CellRanges (streaming over the cells),
+  // then the tree gathers them per leaf: 1.5-2x faster than gathering each
+  // leaf's vertex values directly in tree order (1M tets / hexes, 1 thread).
+  std::unique_ptr<float[]> vmin(new float[bvh.item_count()]), vmax(new float[bvh.item_count()]);
   for (size_t p = 0; p < pieces.size(); ++p)
     pieces[p].visit([&](auto const& mesh) {
       uint64_t const o = offsets[p];
       tbb::parallel_for(tbb::blocked_range<uint64_t>(0, mesh.cell_count(), scan_block),
                         [&](tbb::blocked_range<uint64_t> const& r) {
-                          dispatch<CellRanges>(isa, mesh, r.begin(), r.end(), vmin.data() + o + r.begin(),
-                                               vmax.data() + o + r.begin());
+                          dispatch<CellRanges>(isa, mesh, r.begin(), r.end(), vmin.get() + o + r.begin(),
+                                               vmax.get() + o + r.begin());
                         });
     });
-  fit_ranges_any(bvh, vmin.data(), vmax.data(), out);
+  float const* lo = vmin.get();
+  float const* hi = vmax.get();
+  fit_ranges_any(bvh, [lo, hi](uint64_t id) { return NodeRange{lo[id], hi[id]}; }, out);
 }
 
 }  // namespace detail
@@ -87,7 +93,9 @@ inline void refit_ranges(MinMaxBvh const& bvh, Span<float> vmin, Span<float> vma
   if (vmin.size != bvh.item_count() || vmax.size != bvh.item_count())
     throw InvalidArgument("refit: " + std::to_string(vmin.size) + "/" + std::to_string(vmax.size) +
                           " item ranges for a BVH of " + std::to_string(bvh.item_count()) + " items");
-  detail::fit_ranges_any(bvh, vmin.data, vmax.data, out);
+  float const* lo = vmin.data;
+  float const* hi = vmax.data;
+  detail::fit_ranges_any(bvh, [lo, hi](uint64_t id) { return NodeRange{lo[id], hi[id]}; }, out);
 }
 
 /// Refits the BVH's own ranges in place (for a host with one time step at a
