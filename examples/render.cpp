@@ -1,0 +1,838 @@
+// cellray-render: renders isosurfaces or a volume (DVR) of a legacy .vtk or
+// .vtu mesh, or of a generated default scene, to PNG or PPM. See docs/cli.md
+// or `cellray-render --help`. Every message goes to stderr; stdout carries
+// only the --stats JSON, so scripts can parse it.
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
+
+#include <cellray/bvh/bvh.hpp>
+#include <cellray/error.hpp>
+#include <cellray/io/image_write.hpp>
+#include <cellray/io/read_mesh.hpp>
+#include <cellray/mesh/generate.hpp>
+#include <cellray/mesh/validate.hpp>
+#include <cellray/render/camera.hpp>
+#include <cellray/render/render.hpp>
+#include <cellray/render/transfer_function.hpp>
+
+namespace {
+
+using namespace cellray;
+using Clock = std::chrono::steady_clock;
+
+/// Exit codes, documented in --help and docs/cli.md.
+enum ExitCode { exit_ok = 0, exit_other = 1, exit_usage = 2, exit_io = 3, exit_invalid_mesh = 4 };
+
+/// A bad flag or flag value found after parsing (exit 2).
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+/// Joins a multi-line message (a validation report) into one line: "a; b".
+std::string one_line(std::string msg) {
+  while (!msg.empty() && (msg.back() == '\n' || msg.back() == ' ')) msg.pop_back();
+  std::string out;
+  for (size_t i = 0; i < msg.size(); ++i) {
+    if (msg[i] != '\n') {
+      out += msg[i];
+      continue;
+    }
+    out += "; ";
+    while (i + 1 < msg.size() && msg[i + 1] == ' ') ++i;
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------- parsing
+
+std::vector<std::string> split(std::string const& text, char sep) {
+  std::vector<std::string> out;
+  std::string item;
+  std::istringstream s(text);
+  while (std::getline(s, item, sep)) out.push_back(item);
+  if (!text.empty() && text.back() == sep) out.emplace_back();
+  return out;
+}
+
+float parse_float(std::string const& text, std::string const& flag) {
+  size_t used = 0;
+  float v = 0.f;
+  try {
+    v = std::stof(text, &used);
+  } catch (std::exception const&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(v))
+    throw UsageError(flag + ": '" + text + "' is not a finite number");
+  return v;
+}
+
+std::vector<float> parse_floats(std::string const& text, std::string const& flag) {
+  std::vector<float> out;
+  for (auto const& item : split(text, ',')) out.push_back(parse_float(item, flag));
+  if (out.empty()) throw UsageError(flag + ": expected a comma-separated list of numbers");
+  return out;
+}
+
+glm::vec3 parse_vec3(std::string const& text, std::string const& flag) {
+  auto const v = parse_floats(text, flag);
+  if (v.size() != 3) throw UsageError(flag + ": expected X,Y,Z, got '" + text + "'");
+  return {v[0], v[1], v[2]};
+}
+
+/// "WxH", both in [1, 32768] (a 32768^2 float RGBA image is already 16 GiB).
+void parse_size(std::string const& text, int& w, int& h) {
+  auto const x = text.find('x');
+  auto bad = [&] { return UsageError("--size: expected WxH with both in [1, 32768], got '" + text + "'"); };
+  if (x == std::string::npos) throw bad();
+  try {
+    size_t uw = 0, uh = 0;
+    std::string const sw = text.substr(0, x), sh = text.substr(x + 1);
+    long const lw = std::stol(sw, &uw), lh = std::stol(sh, &uh);
+    if (uw != sw.size() || uh != sh.size() || lw < 1 || lh < 1 || lw > 32768 || lh > 32768) throw bad();
+    w = int(lw);
+    h = int(lh);
+  } catch (UsageError const&) {
+    throw;
+  } catch (std::exception const&) {
+    throw bad();
+  }
+}
+
+/// "R,G,B", "R,G,B,A" in [0, 1], or white, black, transparent.
+glm::vec4 parse_background(std::string const& text) {
+  if (text == "white") return {1.f, 1.f, 1.f, 1.f};
+  if (text == "black") return {0.f, 0.f, 0.f, 1.f};
+  if (text == "transparent") return {0.f, 0.f, 0.f, 0.f};
+  auto const v = parse_floats(text, "--background");
+  if (v.size() != 3 && v.size() != 4)
+    throw UsageError("--background: expected R,G,B or R,G,B,A in [0, 1], or white, black, transparent");
+  for (float c : v)
+    if (c < 0.f || c > 1.f) throw UsageError("--background: components must lie in [0, 1], got '" + text + "'");
+  return {v[0], v[1], v[2], v.size() == 4 ? v[3] : 1.f};
+}
+
+// ------------------------------------------------------ transfer functions
+
+/// Piecewise-linear lookup over increasing knots `x` (ends extend flat).
+template <class T> T lerp_at(std::vector<float> const& x, std::vector<T> const& y, float v) {
+  if (v <= x.front()) return y.front();
+  if (v >= x.back()) return y.back();
+  size_t const i = size_t(std::upper_bound(x.begin(), x.end(), v) - x.begin());
+  float const den = x[i] - x[i - 1];
+  float const t = den > 0.f ? (v - x[i - 1]) / den : 1.f;
+  return y[i - 1] + t * (y[i] - y[i - 1]);
+}
+
+/// Maps knots from their own range onto [lo, hi] (ParaView's default when a
+/// preset is applied: "use preset range" off).
+void rescale(std::vector<float>& x, float lo, float hi) {
+  float const a = x.front(), b = x.back();
+  for (float& v : x) v = b > a ? lo + (v - a) / (b - a) * (hi - lo) : lo;
+}
+
+/// Reads a colour map saved by ParaView ("Save preset": a JSON list of
+/// objects; the first is used) or one such object. "RGBPoints" is
+/// [x, r, g, b, ...]; the optional "Points" is [x, alpha, midpoint,
+/// sharpness, ...] (midpoint and sharpness are ignored: linear ramps). Without
+/// "Points" the opacity is the built-in presets' ramp up to `max_alpha`; with
+/// them, `alpha_scale` multiplies their opacities.
+TransferFunction read_paraview_tf(std::string const& path, float vmin, float vmax, float max_alpha, float alpha_scale,
+                                  bool keep_file_range) {
+  std::ifstream in(path);
+  if (!in) throw IoError(path + ": cannot open the transfer function file");
+  nlohmann::json doc;
+  try {
+    doc = nlohmann::json::parse(in);
+  } catch (nlohmann::json::exception const& e) {
+    throw IoError(path + ": not valid JSON (" + e.what() + ")");
+  }
+  nlohmann::json const* preset = &doc;
+  if (doc.is_array()) {
+    if (doc.empty()) throw IoError(path + ": the preset list is empty");
+    preset = &doc[0];
+  }
+  if (!preset->is_object()) throw IoError(path + ": expected a ParaView colour map preset (a JSON object or a list of them)");
+  auto numbers = [&](char const* key, std::vector<double>& out) {
+    auto it = preset->find(key);
+    if (it == preset->end()) return false;
+    if (!it->is_array()) throw IoError(path + ": \"" + key + "\" must be a list of numbers");
+    for (auto const& v : *it) {
+      if (!v.is_number()) throw IoError(path + ": \"" + key + "\" must be a list of numbers");
+      out.push_back(v.get<double>());
+    }
+    if (out.empty() || out.size() % 4 != 0)
+      throw IoError(path + ": \"" + key + "\" must hold groups of 4 numbers, it has " + std::to_string(out.size()));
+    return true;
+  };
+  std::vector<double> rgb_points, alpha_points;
+  if (!numbers("RGBPoints", rgb_points))
+    throw IoError(path + ": no \"RGBPoints\" (indexed / categorical colour maps are not supported)");
+  bool const has_alpha = numbers("Points", alpha_points);
+
+  std::vector<float> cx, ax;
+  std::vector<glm::vec3> cv;
+  std::vector<float> av;
+  for (size_t i = 0; i < rgb_points.size(); i += 4) {
+    if (!cx.empty() && float(rgb_points[i]) < cx.back())
+      throw IoError(path + ": \"RGBPoints\" values must not decrease (at entry " + std::to_string(i) + ")");
+    cx.push_back(float(rgb_points[i]));
+    cv.emplace_back(rgb_points[i + 1], rgb_points[i + 2], rgb_points[i + 3]);
+  }
+  if (has_alpha) {
+    for (size_t i = 0; i < alpha_points.size(); i += 4) {
+      if (!ax.empty() && float(alpha_points[i]) < ax.back())
+        throw IoError(path + ": \"Points\" values must not decrease (at entry " + std::to_string(i) + ")");
+      ax.push_back(float(alpha_points[i]));
+      av.push_back(float(alpha_points[i + 1]) * alpha_scale);
+    }
+  } else {
+    // The built-in presets' ramp: transparent over the lower two thirds.
+    ax = {0.f, 2.f / 3.f, 1.f};
+    av = {0.f, 0.f, max_alpha};
+  }
+  if (!keep_file_range || !has_alpha) {
+    if (!keep_file_range) rescale(cx, vmin, vmax);
+    rescale(ax, keep_file_range ? cx.front() : vmin, keep_file_range ? cx.back() : vmax);
+  }
+  std::vector<float> knots(cx);
+  knots.insert(knots.end(), ax.begin(), ax.end());
+  std::sort(knots.begin(), knots.end());
+  knots.erase(std::unique(knots.begin(), knots.end()), knots.end());
+  TransferFunction tf;
+  for (float k : knots) {
+    glm::vec3 const c = glm::clamp(lerp_at(cx, cv, k), glm::vec3(0.f), glm::vec3(1.f));
+    float const a = std::clamp(lerp_at(ax, av, k), 0.f, 1.f);
+    tf.values.push_back(k);
+    tf.rgba.emplace_back(c, a);
+  }
+  try {
+    tf.check();
+  } catch (InvalidArgument const& e) {
+    throw IoError(path + ": " + e.what());
+  }
+  return tf;
+}
+
+// ---------------------------------------------------------------- progress
+
+/// Prints "cellray-render: <what>..." on stderr when a phase is still
+/// running after one second, and the time it took when it ends. Does nothing
+/// when disabled (stderr not a terminal and no --progress).
+class Phase {
+ public:
+  Phase(bool enabled, std::string what) : what_(std::move(what)), t0_(Clock::now()) {
+    if (enabled) watcher_ = std::thread([this] { watch(); });
+  }
+  Phase(Phase const&) = delete;
+  Phase& operator=(Phase const&) = delete;
+  ~Phase() { finish(); }
+
+  /// Ends the phase; returns its duration in milliseconds.
+  double finish() {
+    if (!finished_) {
+      ms_ = ms_since(t0_);
+      {
+        std::lock_guard<std::mutex> lock(m_);
+        finished_ = true;
+      }
+      cv_.notify_all();
+      if (watcher_.joinable()) watcher_.join();
+      if (printed_) std::fprintf(stderr, " %.1f s\n", ms_ / 1e3);
+    }
+    return ms_;
+  }
+
+ private:
+  void watch() {
+    std::unique_lock<std::mutex> lock(m_);
+    if (cv_.wait_for(lock, std::chrono::seconds(1), [this] { return finished_; })) return;
+    std::fprintf(stderr, "cellray-render: %s...", what_.c_str());
+    std::fflush(stderr);
+    printed_ = true;
+  }
+
+  std::string what_;
+  Clock::time_point t0_;
+  std::thread watcher_;
+  std::mutex m_;
+  std::condition_variable cv_;
+  bool finished_ = false;
+  bool printed_ = false;  // written by the watcher, read after join
+  double ms_ = 0;
+};
+
+// ------------------------------------------------------------------ options
+
+struct Options {
+  std::string mesh_path;
+  std::string generate = "tets";
+  uint64_t cells = 300000;
+  std::string array;
+  std::string mode = "iso";
+  std::string iso, iso_opacity;
+  std::string tf = "cool-warm";
+  bool tf_file_range = false;
+  float step = 0.f;
+  std::string eye, at, up;
+  float fov = 30.f;
+  std::string size = "1024x768";
+  std::string out = "cellray.png";
+  std::string isa = "auto";
+  std::string traversal = "packet";
+  int threads = 0;
+  int frames = 1;
+  bool shadows = false;
+  int ao = 0;
+  int time_step = -1;
+  bool reference = false;
+  bool stats = false;
+  bool progress = false;
+  bool verbose = false;
+  bool info = false;
+  std::string builder = "binned_sah";
+  int leaf_size = 7;
+  int group_size = 16;
+  std::string dvr_mode = "samples";
+  bool no_skip = false;
+  bool dvr_shading = false;
+  int neubauer = 0;
+  bool central_normals = false;
+  bool skip_unsupported = false;
+  std::string cell_to_point;
+  float unit_distance = 0.f;
+  float opacity = -1.f;
+  std::string background;
+};
+
+constexpr char const* exit_code_help =
+    "Exit codes: 0 success; 1 other error; 2 usage (unknown flag, bad value, unknown array);\n"
+    "3 I/O (mesh or transfer function file missing, unreadable or malformed; image not writable);\n"
+    "4 invalid mesh (fails validation, no cells, no point arrays).\n"
+    "Negative numbers as values work directly (--eye -2,1,3) or with '=' (--eye=-2,1,3).";
+
+void add_options(CLI::App& app, Options& o) {
+  app.add_option("mesh", o.mesh_path, "Legacy .vtk or .vtu mesh; none: the generated default scene");
+  app.add_option("--generate", o.generate, "Default scene cell type (without a mesh)")
+      ->check(CLI::IsMember({"tets", "hexes"}))
+      ->capture_default_str();
+  app.add_option("--cells", o.cells, "Default scene size in cells (approximate)")
+      ->check(CLI::Range(uint64_t(1), uint64_t(1) << 31))
+      ->capture_default_str();
+  app.add_option("--array", o.array, "Point array to render (default: the first)");
+  app.add_option("--time-step", o.time_step,
+                 "Render the K-th point array (0-based) as a time step of the --array one: refits the BVH's "
+                 "value ranges, never rebuilds")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--cell-to-point", o.cell_to_point,
+                 "Average the cell array NAME to the vertices and render it (unless --array says otherwise)");
+  app.add_flag("--skip-unsupported", o.skip_unsupported, "Skip cells other than tets and hexes (wedges...) instead of failing");
+  app.add_option("--mode", o.mode, "isosurfaces or direct volume rendering")
+      ->check(CLI::IsMember({"iso", "dvr"}))
+      ->capture_default_str();
+  app.add_option("--iso", o.iso, "Isovalues V1,V2,... (1 to 8; default: 3 spread over the value range)");
+  app.add_option("--iso-opacity", o.iso_opacity,
+                 "Opacity per isovalue A1,A2,... or one for all (default: 0.4 for all but the last, which is opaque)");
+  app.add_option("--neubauer", o.neubauer, "Isosurface roots by N Neubauer steps instead of exactly")
+      ->check(CLI::Range(1, 64));
+  app.add_flag("--central-normals", o.central_normals, "Normals by central differences (the paper's) instead of analytic");
+  app.add_flag("--shadows", o.shadows, "Hard shadows from a light at the eye (iso)");
+  app.add_option("--ao", o.ao, "Ambient-occlusion rays per hit (iso)")->check(CLI::Range(0, 1024));
+  app.add_option("--tf", o.tf,
+                 "DVR transfer function: cool-warm, viridis, inferno, grayscale, or a ParaView colour map JSON file")
+      ->capture_default_str();
+  app.add_flag("--tf-file-range", o.tf_file_range,
+               "Keep a JSON colour map's own value range instead of rescaling it to the data range");
+  app.add_option("--opacity", o.opacity,
+                 "DVR peak opacity of a preset ramp (default 0.8); scales a JSON file's opacity points")
+      ->check(CLI::Range(0.f, 1.f));
+  app.add_option("--unit-distance", o.unit_distance,
+                 "DVR opacity unit distance, world units (default: scene diagonal / 10)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--step", o.step, "DVR sample step, world units (default: scene diagonal / 500)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--dvr-mode", o.dvr_mode, "DVR point samples or exact cell segments")
+      ->check(CLI::IsMember({"samples", "segments"}))
+      ->capture_default_str();
+  app.add_option("--group-size", o.group_size, "DVR samples per ray per traversal")
+      ->check(CLI::Range(1, 32))
+      ->capture_default_str();
+  app.add_flag("--no-skip", o.no_skip, "Disable DVR empty-space skipping");
+  app.add_flag("--dvr-shading", o.dvr_shading, "Lambert shading by the field gradient in DVR");
+  app.add_option("--background", o.background, "R,G,B[,A] in [0,1], or white, black, transparent (default white)");
+  app.add_option("--eye", o.eye, "Camera position X,Y,Z (default: framing the mesh bounds)");
+  app.add_option("--at", o.at, "Look-at point X,Y,Z (default: the bounds' centre)");
+  app.add_option("--up", o.up, "Up vector X,Y,Z (default 0,1,0)");
+  app.add_option("--fov", o.fov, "Vertical field of view, degrees")->check(CLI::Range(0.01f, 179.f))->capture_default_str();
+  app.add_option("--size", o.size, "Image size WxH")->capture_default_str();
+  app.add_option("-o,--output", o.out, "Output image, .png or .ppm")->capture_default_str();
+  app.add_option("--isa", o.isa, "SIMD instruction set (auto honours CELLRAY_ISA)")
+      ->check(CLI::IsMember({"auto", "sse4", "avx2", "avx512"}))
+      ->capture_default_str();
+  app.add_option("--traversal", o.traversal, "Primary-ray traversal")
+      ->check(CLI::IsMember({"packet", "spmd", "hybrid"}))
+      ->capture_default_str();
+  app.add_option("--threads", o.threads, "Worker threads (default: all cores)")->check(CLI::Range(1, 4096));
+  app.add_option("--frames", o.frames, "Render N times and report the median time")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  app.add_option("--builder", o.builder, "BVH builder")
+      ->check(CLI::IsMember({"binned_sah", "spatial_median", "morton", "sah", "median"}))
+      ->capture_default_str();
+  app.add_option("--leaf-size", o.leaf_size, "Largest BVH leaf, cells")->capture_default_str();
+  app.add_flag("--reference", o.reference, "Render with the double-precision reference path (for comparisons)");
+  app.add_flag("--stats", o.stats, "Print one JSON object with sizes and timings on stdout");
+  app.add_flag("--progress", o.progress, "Progress lines on stderr even when it is not a terminal");
+  app.add_flag("-v,--verbose", o.verbose, "Print what was read, the validation report and BVH statistics");
+  app.add_flag("--info", o.info, "Print what was read and the arrays, then exit without rendering");
+}
+
+// ------------------------------------------------------------------- scene
+
+/// The mesh data, owned here; views into it are made once it is final.
+struct Loaded {
+  std::optional<UnstructuredGrid> grid;
+  std::optional<GeneratedMesh<4>> gen_tets;
+  std::optional<GeneratedMesh<8>> gen_hexes;
+  std::string name;  // for messages
+  TetMesh tets;
+  HexMesh hexes;
+
+  std::vector<ScalarArray> const& arrays() const { return tets.empty() ? hexes.arrays() : tets.arrays(); }
+  uint64_t cells() const { return tets.cell_count() + hexes.cell_count(); }
+  uint64_t vertices() const { return tets.empty() ? hexes.vertex_count() : tets.vertex_count(); }
+  std::string cell_type() const {
+    return tets.empty() ? "hex" : hexes.empty() ? "tet" : "mixed";
+  }
+};
+
+std::string list_names(std::vector<std::string> const& names) {
+  std::string s;
+  for (auto const& n : names) s += (s.empty() ? "" : ", ") + n;
+  return s.empty() ? "none" : s;
+}
+
+std::vector<std::string> point_array_names(Loaded const& l) {
+  std::vector<std::string> n;
+  for (auto const& a : l.arrays()) n.push_back(a.name);
+  return n;
+}
+
+std::vector<std::string> cell_array_names(Loaded const& l) {
+  std::vector<std::string> n;
+  if (l.grid)
+    for (auto const& a : l.grid->cell_arrays) n.push_back(a.name);
+  return n;
+}
+
+void load(Options const& o, Loaded& l) {
+  if (o.mesh_path.empty()) {
+    l.name = "default scene";
+    if (o.generate == "hexes") {
+      l.gen_hexes = generate_hexes(o.cells);
+      l.hexes = l.gen_hexes->mesh();
+    } else {
+      l.gen_tets = generate_tets(o.cells);
+      l.tets = l.gen_tets->mesh();
+    }
+    if (!o.cell_to_point.empty()) throw UsageError("--cell-to-point needs a mesh file (the default scene has point arrays only)");
+    return;
+  }
+  l.name = std::filesystem::path(o.mesh_path).filename().string();
+  ReadOptions ro;
+  ro.skip_unsupported_cells = o.skip_unsupported;
+  try {
+    l.grid = read_mesh(o.mesh_path, ro);
+  } catch (IoError const& e) {
+    // The reader names its option; tell the flag instead.
+    if (!o.skip_unsupported && std::string(e.what()).find("unsupported cells") != std::string::npos)
+      throw IoError(std::string(e.what()) + "; cellray-render: pass --skip-unsupported to skip them");
+    throw;
+  }
+  UnstructuredGrid& g = *l.grid;
+  if (!o.cell_to_point.empty()) {
+    if (!g.cell_array(o.cell_to_point)) {
+      std::vector<std::string> names;
+      for (auto const& a : g.cell_arrays) names.push_back(a.name);
+      throw UsageError("--cell-to-point: " + l.name + " has no cell array '" + o.cell_to_point +
+                       "' (cell arrays: " + list_names(names) + ")");
+    }
+    // A file may hold a point and a cell array of one name (OpenFOAM's T).
+    std::string target = o.cell_to_point;
+    if (g.point_array(target)) target += "@cells";
+    g.cell_to_point(o.cell_to_point, target);
+  }
+  if (g.empty())
+    throw InvalidMesh(l.name + " holds no tetrahedra or hexahedra" +
+                      (g.report.skipped_count() ? " (all cells were skipped as unsupported)" : ""));
+  l.tets = g.tet_mesh();
+  l.hexes = g.hex_mesh();
+}
+
+/// The array a name selects, or a usage error listing the choices.
+std::string select_array(Loaded const& l, std::string const& wanted, char const* flag) {
+  auto const names = point_array_names(l);
+  if (std::find(names.begin(), names.end(), wanted) != names.end()) return wanted;
+  std::string msg = std::string(flag) + ": " + l.name + " has no point array '" + wanted + "' (point arrays: " +
+                    list_names(names) + ")";
+  auto const cells = cell_array_names(l);
+  if (std::find(cells.begin(), cells.end(), wanted) != cells.end())
+    msg += "; '" + wanted + "' is a cell array: use --cell-to-point " + wanted;
+  throw UsageError(msg);
+}
+
+template <int N> void set_active(CellMesh<N>& m, std::string const& name) {
+  if (!m.empty()) m = m.with_array(name);
+}
+
+/// Validates a non-empty part; returns its finite value range through lo/hi.
+template <int N> void check_part(CellMesh<N> const& m, Options const& o, char const* what, float& lo, float& hi) {
+  if (m.empty()) return;
+  ValidationReport const rep = validate(m);
+  if (o.verbose) std::cerr << "cellray-render: " << what << ": " << rep.message() << "\n";
+  if (!rep.ok()) throw InvalidMesh(std::string(what) + " failed validation: " + one_line(rep.message()));
+  if (rep.has_warnings() && !o.verbose) std::cerr << "cellray-render: warning: " << what << ": " << one_line(rep.message()) << "\n";
+  lo = std::min(lo, rep.value_min);
+  hi = std::max(hi, rep.value_max);
+}
+
+/// A pleasant fixed palette, by isovalue index.
+glm::vec3 iso_color(size_t i) {
+  static glm::vec3 const palette[] = {{0.31f, 0.57f, 0.85f}, {0.96f, 0.62f, 0.25f}, {0.85f, 0.33f, 0.35f},
+                                      {0.42f, 0.75f, 0.45f}, {0.65f, 0.50f, 0.80f}, {0.95f, 0.85f, 0.35f},
+                                      {0.45f, 0.80f, 0.82f}, {0.80f, 0.55f, 0.45f}};
+  return palette[i % (sizeof(palette) / sizeof(palette[0]))];
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  size_t const n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+double peak_rss_mb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_maxrss) / 1024.0;  // Linux: KiB
+}
+
+bool ends_with(std::string const& s, char const* ext) {
+  std::string const e(ext);
+  if (s.size() < e.size()) return false;
+  for (size_t i = 0; i < e.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(s[s.size() - e.size() + i])) != e[i]) return false;
+  return true;
+}
+
+int run(Options const& o) {
+  bool const progress = o.progress || isatty(STDERR_FILENO);
+
+  // Everything checkable before any work is checked first.
+  int width = 0, height = 0;
+  parse_size(o.size, width, height);
+  if (!ends_with(o.out, ".png") && !ends_with(o.out, ".ppm"))
+    throw UsageError("-o: '" + o.out + "' must end in .png or .ppm");
+  {
+    auto const dir = std::filesystem::path(o.out).parent_path();
+    if (!dir.empty() && !std::filesystem::is_directory(dir))
+      throw IoError("-o: " + o.out + ": the directory " + dir.string() + " does not exist");
+  }
+  if (o.leaf_size < 1 || o.leaf_size > int(Node::max_leaf_items))
+    throw UsageError("--leaf-size: must be in [1, " + std::to_string(Node::max_leaf_items) + "]");
+  Isa isa = default_isa();
+  if (o.isa != "auto") {
+    isa = parse_isa(o.isa);
+    if (!cpu_supports(isa)) throw UsageError("--isa " + o.isa + ": this CPU does not support it");
+  }
+  Traversal const traversal = o.traversal == "spmd"     ? Traversal::spmd
+                              : o.traversal == "hybrid" ? Traversal::hybrid
+                                                        : Traversal::packet;
+  BuildOptions bo;
+  bo.builder = (o.builder == "spatial_median" || o.builder == "median") ? BvhBuilder::spatial_median
+               : o.builder == "morton"                                 ? BvhBuilder::morton
+                                                                       : BvhBuilder::binned_sah;
+  bo.max_leaf_size = uint32_t(o.leaf_size);
+  bo.isa = isa;
+  std::optional<glm::vec4> background;
+  if (!o.background.empty()) background = parse_background(o.background);
+  std::vector<float> isovalues, iso_opacity;
+  if (!o.iso.empty()) {
+    isovalues = parse_floats(o.iso, "--iso");
+    if (isovalues.size() > 8) throw UsageError("--iso: at most 8 isovalues, got " + std::to_string(isovalues.size()));
+  }
+  if (!o.iso_opacity.empty()) {
+    iso_opacity = parse_floats(o.iso_opacity, "--iso-opacity");
+    for (float a : iso_opacity)
+      if (a < 0.f || a > 1.f) throw UsageError("--iso-opacity: opacities must lie in [0, 1]");
+  }
+  std::optional<glm::vec3> eye, at, up;
+  if (!o.eye.empty()) eye = parse_vec3(o.eye, "--eye");
+  if (!o.at.empty()) at = parse_vec3(o.at, "--at");
+  if (!o.up.empty()) up = parse_vec3(o.up, "--up");
+  if (o.reference)
+    // TODO(lead): wire the double-precision reference renderer here once
+    // the accuracy work declares it.
+    throw Error("--reference: the double-precision reference renderer is not available yet");
+
+  std::optional<tbb::global_control> thread_limit;
+  if (o.threads > 0) thread_limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
+  int const threads = o.threads > 0 ? o.threads : tbb::this_task_arena::max_concurrency();
+
+  // Load.
+  Loaded l;
+  double load_ms = 0;
+  {
+    Phase ph(progress, o.mesh_path.empty() ? "generating the default scene" : "reading " + o.mesh_path);
+    load(o, l);
+    load_ms = ph.finish();
+  }
+  if (l.grid && (o.verbose || o.info)) std::cerr << l.grid->report.summary() << "\n";
+  if (l.grid && l.grid->report.skipped_count() && !o.verbose && !o.info)
+    std::cerr << "cellray-render: note: skipped " << l.grid->report.skipped_count() << " unsupported cells\n";
+  auto const names = point_array_names(l);
+  if (o.info) {
+    std::cerr << l.name << ": " << l.tets.cell_count() << " tetrahedra, " << l.hexes.cell_count() << " hexahedra, "
+              << l.vertices() << " vertices\n  point arrays: " << list_names(names)
+              << "\n  cell arrays: " << list_names(cell_array_names(l)) << "\n";
+    return exit_ok;
+  }
+  if (names.empty()) {
+    auto const cells = cell_array_names(l);
+    throw InvalidMesh(l.name + " has no point arrays to render" +
+                      (cells.empty() ? std::string() : " (cell arrays: " + list_names(cells) + "; use --cell-to-point NAME)"));
+  }
+  std::string build_array = names.front();
+  if (!o.cell_to_point.empty()) build_array = l.grid->point_arrays.back().name;
+  if (!o.array.empty()) build_array = select_array(l, o.array, "--array");
+  set_active(l.tets, build_array);
+  set_active(l.hexes, build_array);
+
+  // Validate and build once per part (geometry + the build array).
+  float vlo = std::numeric_limits<float>::infinity(), vhi = -vlo;
+  {
+    Phase ph(progress, "validating");
+    check_part(l.tets, o, "tetrahedra", vlo, vhi);
+    check_part(l.hexes, o, "hexahedra", vlo, vhi);
+  }
+  MinMaxBvh tet_bvh, hex_bvh;
+  double build_ms = 0;
+  {
+    Phase ph(progress, "building the BVH over " + std::to_string(l.cells()) + " cells");
+    if (!l.tets.empty()) tet_bvh = build_minmax_bvh(l.tets, bo);
+    if (!l.hexes.empty()) hex_bvh = build_minmax_bvh(l.hexes, bo);
+    build_ms = ph.finish();
+  }
+  if (o.verbose) {
+    if (!l.tets.empty()) std::cerr << "cellray-render: tet BVH: " << bvh_stats(tet_bvh) << "\n";
+    if (!l.hexes.empty()) std::cerr << "cellray-render: hex BVH: " << bvh_stats(hex_bvh) << "\n";
+  }
+
+  // A time step: another array over the same geometry, ranges refit.
+  std::string array = build_array;
+  ValueRanges tet_ranges, hex_ranges;
+  bool refit = false;
+  double refit_ms = 0;
+  if (o.time_step >= 0) {
+    if (size_t(o.time_step) >= names.size())
+      throw UsageError("--time-step " + std::to_string(o.time_step) + ": " + l.name + " has " +
+                       std::to_string(names.size()) + " point arrays (" + list_names(names) + "), steps 0 to " +
+                       std::to_string(names.size() - 1));
+    array = names[size_t(o.time_step)];
+    set_active(l.tets, array);
+    set_active(l.hexes, array);
+    vlo = std::numeric_limits<float>::infinity();
+    vhi = -vlo;
+    check_part(l.tets, o, "tetrahedra", vlo, vhi);
+    check_part(l.hexes, o, "hexahedra", vlo, vhi);
+    auto const t0 = Clock::now();
+    if (!l.tets.empty()) refit_ranges(tet_bvh, l.tets, tet_ranges, isa);
+    if (!l.hexes.empty()) refit_ranges(hex_bvh, l.hexes, hex_ranges, isa);
+    refit_ms = ms_since(t0);
+    refit = true;
+  }
+  if (!(vlo <= vhi))
+    throw InvalidMesh(l.name + ": point array '" + array + "' has no finite value: nothing to render");
+
+  Scene scene;
+  if (!l.tets.empty()) scene.tets.push_back({l.tets, &tet_bvh, refit ? &tet_ranges : nullptr});
+  if (!l.hexes.empty()) scene.hexes.push_back({l.hexes, &hex_bvh, refit ? &hex_ranges : nullptr});
+
+  // Camera: fit the bounds, then apply what was given.
+  glm::vec3 lo, hi;
+  scene.bounds(lo, hi);
+  Camera cam = fit_camera(lo, hi, width, height, o.fov);
+  if (eye || at || up)
+    cam = Camera::look_at(eye.value_or(cam.eye), at.value_or(0.5f * (lo + hi)), up.value_or(glm::vec3(0.f, 1.f, 0.f)),
+                          o.fov, width, height);
+  float const diagonal = glm::length(hi - lo);
+
+  RenderOptions ro;
+  ro.isa = isa;
+  ro.traversal = traversal;
+
+  IsoParams ip;
+  DvrParams dp;
+  if (o.mode == "iso") {
+    if (isovalues.empty())
+      for (float t : {0.25f, 0.5f, 0.75f}) isovalues.push_back(vlo + t * (vhi - vlo));
+    if (!iso_opacity.empty() && iso_opacity.size() != 1 && iso_opacity.size() != isovalues.size())
+      throw UsageError("--iso-opacity: give one opacity or one per isovalue (" + std::to_string(isovalues.size()) + ")");
+    for (size_t i = 0; i < isovalues.size(); ++i) {
+      IsoSurface s;
+      s.value = isovalues[i];
+      s.color = iso_color(i);
+      s.opacity = iso_opacity.empty()       ? (i + 1 == isovalues.size() ? 1.f : 0.4f)
+                  : iso_opacity.size() == 1 ? iso_opacity[0]
+                                            : iso_opacity[i];
+      ip.surfaces.push_back(s);
+    }
+    if (o.neubauer > 0) {
+      ip.roots.method = CellIsoMethod::neubauer;
+      ip.roots.neubauer_steps = o.neubauer;
+    }
+    if (o.central_normals) ip.normals = GradientMethod::central;
+    ip.shadows = o.shadows;
+    ip.ao_samples = o.ao;
+    if (background) ip.background = *background;
+  } else {
+    float const max_alpha = o.opacity >= 0.f ? o.opacity : 0.8f;
+    if (std::filesystem::exists(o.tf))
+      dp.tf = read_paraview_tf(o.tf, vlo, vhi, max_alpha, o.opacity >= 0.f ? o.opacity : 1.f, o.tf_file_range);
+    else {
+      try {
+        dp.tf = transfer_function_preset(o.tf, vlo, vhi, max_alpha);
+      } catch (InvalidArgument const& e) {
+        throw UsageError(std::string("--tf: ") + e.what() + " and no file '" + o.tf + "'");
+      }
+    }
+    // Opacity accumulates per unit distance: a tenth of the diagonal keeps a
+    // mesh's look independent of its units.
+    dp.tf.unit_distance = o.unit_distance > 0.f ? o.unit_distance : std::max(diagonal / 10.f, 1e-30f);
+    dp.step = o.step;
+    dp.group_size = o.group_size;
+    dp.mode = o.dvr_mode == "segments" ? DvrMode::segments : DvrMode::samples;
+    dp.empty_space_skipping = !o.no_skip;
+    dp.gradient_shading = o.dvr_shading;
+    if (background) dp.background = *background;
+  }
+
+  // Render.
+  Image image;
+  std::vector<double> times;
+  {
+    Phase ph(progress, "rendering " + std::to_string(width) + "x" + std::to_string(height) +
+                           (o.frames > 1 ? " " + std::to_string(o.frames) + " times" : std::string()));
+    for (int f = 0; f < o.frames; ++f) {
+      auto const t0 = Clock::now();
+      image = o.mode == "iso" ? render_iso(scene, cam, ip, ro) : render_dvr(scene, cam, dp, ro);
+      times.push_back(ms_since(t0));
+    }
+  }
+  if (image.width != width || image.height != height)
+    throw Error("the renderer returned a " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+                " image for " + std::to_string(width) + "x" + std::to_string(height));
+  write_image(o.out, image);
+  if (progress) std::cerr << "cellray-render: wrote " << o.out << "\n";
+
+  if (o.stats) {
+    double const render_ms = median(times);
+    uint64_t const bvh_bytes = tet_bvh.memory_bytes() * !l.tets.empty() + hex_bvh.memory_bytes() * !l.hexes.empty();
+    nlohmann::ordered_json j;
+    j["file"] = o.mesh_path.empty() ? std::string() : o.mesh_path;
+    j["mode"] = o.mode;
+    j["array"] = array;
+    j["cells"] = l.cells();
+    j["vertices"] = l.vertices();
+    j["cell_type"] = l.cell_type();
+    j["isa"] = isa_name(isa);
+    j["traversal"] = traversal_name(traversal);
+    j["threads"] = threads;
+    j["width"] = width;
+    j["height"] = height;
+    j["load_ms"] = load_ms;
+    j["builder"] = builder_name(bo.builder);
+    j["leaf_size"] = o.leaf_size;
+    j["build_ms"] = build_ms;
+    j["refit_ms"] = refit_ms;
+    j["bvh_nodes"] = tet_bvh.node_count() * !l.tets.empty() + hex_bvh.node_count() * !l.hexes.empty();
+    j["bvh_bytes"] = bvh_bytes;
+    j["bvh_bytes_per_cell"] = double(bvh_bytes) / double(l.cells());
+    j["frames"] = o.frames;
+    j["render_ms"] = render_ms;
+    j["render_ms_min"] = *std::min_element(times.begin(), times.end());
+    j["mrays_per_s"] = double(width) * double(height) / (render_ms * 1e-3) / 1e6;
+    j["peak_rss_mb"] = peak_rss_mb();
+    std::cout << j.dump() << std::endl;
+  }
+  return exit_ok;
+}
+
+void report_error(std::string const& msg) { std::cerr << "cellray-render: error: " << one_line(msg) << "\n"; }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "cellray-render: ray traces isosurfaces or a volume (DVR) of an unstructured tet/hex mesh\n"
+      "(legacy .vtk or .vtu) to PNG or PPM; without a mesh, renders a generated scene."};
+  app.footer(exit_code_help);
+  Options o;
+  add_options(app, o);
+  try {
+    app.parse(argc, argv);
+  } catch (CLI::CallForHelp const& e) {
+    return app.exit(e);
+  } catch (CLI::CallForAllHelp const& e) {
+    return app.exit(e);
+  } catch (CLI::ParseError const& e) {
+    report_error(std::string(e.what()) + " (see --help)");
+    return exit_usage;
+  }
+  try {
+    return run(o);
+  } catch (UsageError const& e) {
+    report_error(e.what());
+    return exit_usage;
+  } catch (InvalidArgument const& e) {
+    report_error(e.what());
+    return exit_usage;
+  } catch (IoError const& e) {
+    report_error(e.what());
+    return exit_io;
+  } catch (std::filesystem::filesystem_error const& e) {
+    report_error(e.what());
+    return exit_io;
+  } catch (InvalidMesh const& e) {
+    report_error(e.what());
+    return exit_invalid_mesh;
+  } catch (std::bad_alloc const&) {
+    report_error("out of memory");
+    return exit_other;
+  } catch (std::exception const& e) {
+    report_error(e.what());
+    return exit_other;
+  }
+}
