@@ -5,6 +5,7 @@
 // allocating, so a header claiming 10^12 points fails without allocating.
 
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -318,7 +319,7 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
   if (!is_integer(conn.type))
     throw IoError(where.conn(0) + "cell connectivity is stored as " + num_name(conn.type) + ", not integers");
   uint64_t per_type[82] = {};
-  uint64_t first_unsupported[82];
+  uint64_t first_unsupported[82] = {};
   uint64_t ntets = 0, nhexes = 0, nunsupported = 0;
   CellKinds kinds(ncells);
   for (uint64_t c = 0; c < ncells; ++c) {

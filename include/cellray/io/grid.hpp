@@ -131,6 +131,7 @@ struct ReadReport {
   std::vector<std::string> arrays_read;     ///< "point 'T'", "cell 'EQPS'", "point 'DISPL' (3 components, magnitude)"
   std::vector<std::string> arrays_ignored;  ///< with the reason, e.g. "field 'TimeValue' (dataset field data)"
 
+  /// Cells dropped in total (all types).
   uint64_t skipped_count() const {
     uint64_t n = 0;
     for (auto const& [type, count] : cells_skipped) n += count;
@@ -165,8 +166,11 @@ struct UnstructuredGrid {
   std::vector<CellArray> cell_arrays;
   ReadReport report;
 
+  /// Vertices (all of the file's points, used by a kept cell or not).
   uint64_t vertex_count() const noexcept { return xyz.size() / 3; }
+  /// Kept tetrahedra (linear, quadratic and higher-order ones as corner cells).
   uint64_t tet_count() const noexcept { return tets.size() / 4; }
+  /// Kept hexahedra (linear, voxels, quadratic and higher-order ones as corner cells).
   uint64_t hex_count() const noexcept { return hexes.size() / 8; }
   /// True when the grid has no cell at all.
   bool empty() const noexcept { return tets.empty() && hexes.empty(); }
