@@ -17,6 +17,11 @@ set(CELLRAY_ISA_FLAGS_2 "-msse4.2;-mavx2;-mfma;-mavx512f;-mavx512cd;-mavx512dq;-
 # GCC 12 warns falsely about '__Y' in avx512fintrin.h at -O1 and above; these
 # must come after any -Wall, so they are applied last (see below).
 set(CELLRAY_ISA_LATE_FLAGS_2 "$<$<CXX_COMPILER_ID:GNU>:-Wno-uninitialized;-Wno-maybe-uninitialized>" CACHE INTERNAL "")
+# GCC 12.2 at -O2 dropped the results of a width-1 sub-traversal called from
+# an AVX2 packet traversal (its writes to the query object were not seen by
+# the caller); -fno-ipa-modref, -O1, clang, ASan or UBSan all gave the right
+# answer. Not reduced to a minimal case yet; kept off in every ISA unit.
+set(CELLRAY_ISA_GCC_SAFETY "$<$<CXX_COMPILER_ID:GNU>:-fno-ipa-modref>" CACHE INTERNAL "")
 set(CELLRAY_ISA_NAMES sse4 avx2 avx512 CACHE INTERNAL "")
 
 function(cellray_add_isa_units target)
@@ -32,7 +37,7 @@ function(cellray_add_isa_units target)
     target_link_libraries(${obj} PRIVATE cellray::cellray)
     target_compile_definitions(${obj} PRIVATE CELLRAY_ISA_UNIT=${i})
     target_compile_options(${obj} PRIVATE ${CELLRAY_ISA_FLAGS_${i}})
-    target_compile_options(${obj} PRIVATE ${ARG_OPTIONS} ${CELLRAY_ISA_LATE_FLAGS_${i}})
+    target_compile_options(${obj} PRIVATE ${ARG_OPTIONS} ${CELLRAY_ISA_LATE_FLAGS_${i}} ${CELLRAY_ISA_GCC_SAFETY})
     target_sources(${target} PRIVATE $<TARGET_OBJECTS:${obj}>)
   endforeach()
 endfunction()

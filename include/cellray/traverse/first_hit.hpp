@@ -84,20 +84,7 @@ template <class A, int N> struct FirstHitQuery {
     update(h.hit, h.t, h.iso_index, slots);
   }
 
-  void single(int lane, uint32_t node) {
-    RayPacket<scalar> const one = extract_lane(r, lane);
-    alignas(64) float ts[width<A>];
-    alignas(64) int32_t items[width<A>], iso[width<A>];
-    simd::store(ts, hit.t);
-    simd::store(items, hit.item);
-    simd::store(iso, hit.iso);
-    FirstHitQuery<scalar, N> q1{tree, mesh, one, isos, method, {ts[lane], items[lane], iso[lane]}};
-    traverse_packet<scalar>(tree, one, true, q1, node);
-    ts[lane] = q1.hit.t, items[lane] = q1.hit.item, iso[lane] = q1.hit.iso;
-    hit.t = simd::load<A>(ts);
-    hit.item = simd::load<A>(items);
-    hit.iso = simd::load<A>(iso);
-  }
+
 };
 
 }  // namespace CELLRAY_ISA_NS

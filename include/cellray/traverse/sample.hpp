@@ -126,19 +126,7 @@ template <class A, int N> struct SampleQuery {
     visit(gather_corners<A, N>(mesh, simd::load<A>(cells), m), m);
   }
 
-  void single(int lane, uint32_t node) {
-    RayPacket<scalar> const one = extract_lane(r, lane);
-    float const t0l = simd::to_array<A>(t0)[size_t(lane)];
-    SampleQuery<scalar, N> q1(tree, mesh, one, windows, t0l, step, group, true);
-    for (int g = 0; g < group; ++g) q1.pending[g] = (pending[g] >> lane) & 1u;
-    traverse_packet<scalar>(tree, one, true, q1, node);
-    for (int g = 0; g < group; ++g) {
-      if (((pending[g] >> lane) & 1u) && !q1.pending[g]) {
-        values[g][lane] = q1.values[g][0];
-        pending[g] &= ~(1u << lane);
-      }
-    }
-  }
+
 };
 
 /// Runs one group for the lanes in `active` with the chosen traversal.

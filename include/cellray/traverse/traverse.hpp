@@ -3,13 +3,13 @@
 //   packet: W rays visit one node together with one uniform stack;
 //   SPMD:   each lane pops, tests and descends on its own stack.
 // Hybrid is packet traversal that hands a subtree reached by fewer than a
-// threshold of lanes to single-ray (width-1 packet) traversal.
+// threshold of lanes to SPMD traversal of those lanes, so the vector unit
+// stays busy with whatever other work the lanes have.
 //
 // A query supplies, for packet traversal:
 //   bool node_relevant(float vmin, float vmax)      uniform value-range filter
 //   vfloat<A> t_lo(), t_hi()                         per-lane interval to search
 //   void leaf(uint64_t first_slot, uint32_t count, vmask<A> lanes)
-//   void single(int lane, uint32_t node)             hybrid: finish one lane alone
 //   bool done()                                      true: stop early (all answers found)
 // and for SPMD:
 //   vmask<A> relevant(vfloat<A> vmin, vfloat<A> vmax)
@@ -31,6 +31,9 @@ inline constexpr int traversal_stack_size = int(MinMaxBvh::max_depth) + 2;
 template <class A> inline int popcount(vmask<A> const& m) { return __builtin_popcount(simd::movemask(m)); }
 
 template <class A, class Query>
+void traverse_spmd(TreeView const& tree, RayPacket<A> const& r, vmask<A> active, Query& q, uint32_t root = 0);
+
+template <class A, class Query>
 void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> active, Query& q, uint32_t root = 0,
                      int hybrid_threshold = 0) {
   if (tree.empty() || simd::none(active)) return;
@@ -46,7 +49,7 @@ void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> activ
     if (simd::none(m)) continue;
     if constexpr (!std::is_same_v<A, scalar>) {
       if (hybrid_threshold > 0 && popcount<A>(m) < hybrid_threshold) {
-        for (uint32_t bits = simd::movemask(m); bits; bits &= bits - 1) q.single(__builtin_ctz(bits), ni);
+        traverse_spmd<A>(tree, r, m, q, ni);
         continue;
       }
     }
@@ -74,7 +77,7 @@ void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> activ
 }
 
 template <class A, class Query>
-void traverse_spmd(TreeView const& tree, RayPacket<A> const& r, vmask<A> active, Query& q) {
+void traverse_spmd(TreeView const& tree, RayPacket<A> const& r, vmask<A> active, Query& q, uint32_t root) {
   constexpr int W = width<A>;
   if (tree.empty() || simd::none(active)) return;
   uint32_t stack[W][traversal_stack_size];
@@ -82,7 +85,7 @@ void traverse_spmd(TreeView const& tree, RayPacket<A> const& r, vmask<A> active,
   uint32_t const lanes = simd::movemask(active);
   for (int l = 0; l < W; ++l) {
     sp[l] = int((lanes >> l) & 1u);
-    stack[l][0] = 0;
+    stack[l][0] = root;
   }
   float const* nf = reinterpret_cast<float const*>(tree.nodes);
   int32_t const* ni32 = reinterpret_cast<int32_t const*>(tree.nodes);
