@@ -6,3 +6,4 @@
 #include "../cells/queries_impl.hpp"
 #include "../mesh/cell_boxes_impl.hpp"
 #include "../traverse/queries_impl.hpp"
+#include "../render/render_impl.hpp"

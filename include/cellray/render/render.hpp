@@ -22,6 +22,7 @@
 #include "../traverse/ray.hpp"
 #include "camera.hpp"
 #include "image.hpp"
+#include "render_common.hpp"
 #include "transfer_function.hpp"
 
 namespace cellray {
@@ -85,7 +86,6 @@ struct DvrParams {
   DvrMode mode = DvrMode::samples;
   bool empty_space_skipping = true;  ///< skip subtrees whose values map to zero opacity
   float termination = 0.99f;         ///< stop a ray at this accumulated opacity
-  bool gradient_shading = false;     ///< Lambert shading by the field gradient (headlight)
   glm::vec4 background{1.f, 1.f, 1.f, 1.f};
 };
 
@@ -111,11 +111,11 @@ struct RenderStats {
 };
 
 /// Entry points per ISA (dispatch.hpp). `out` is the full image; only the
-/// tile's pixels are written.
+/// tile's pixels are written. The scene is prepared by render_iso/render_dvr.
 template <class Arch> struct RenderTileEntry {
-  static void iso(Scene const& scene, Camera const& cam, IsoParams const& p, RenderOptions const& o, Tile tile,
+  static void run(PreparedScene const& scene, Camera const& cam, IsoParams const& p, RenderOptions const& o, Tile tile,
                   Image& out);
-  static void dvr(Scene const& scene, Camera const& cam, DvrParams const& p, RenderOptions const& o, Tile tile,
+  static void run(PreparedScene const& scene, Camera const& cam, DvrParams const& p, RenderOptions const& o, Tile tile,
                   Image& out);
 };
 CELLRAY_EXTERN_ENTRY(RenderTileEntry)

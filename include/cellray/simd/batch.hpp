@@ -86,7 +86,10 @@ inline int32_t select(bool m, int32_t a, int32_t b) noexcept { return m ? a : b;
 template <class T, class A>
 inline xsimd::batch<T, A> select(xsimd::batch_bool<T, A> const& m, xsimd::batch<T, A> const& a,
                                  xsimd::batch<T, A> const& b) noexcept {
-  return xsimd::select(m, a, b);
+  // xsimd 8.1's AVX-512BW integer select does not compile with GCC at -O0
+  // (its 8/16-bit blend branches are instantiated for int32 too).
+  if constexpr (is_avx512<A> && std::is_same_v<T, int32_t>) return _mm512_mask_blend_epi32(m, b, a);
+  else return xsimd::select(m, a, b);
 }
 
 inline float min(float a, float b) noexcept { return a < b ? a : b; }

@@ -1,0 +1,200 @@
+// Baseline side of the renderer: checks, scene preparation, TBB tiles.
+// Included at the end of render.hpp.
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <tbb/blocked_range2d.h>
+#include <tbb/parallel_for.h>
+
+namespace cellray {
+
+inline void Scene::bounds(glm::vec3& lo, glm::vec3& hi) const {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  lo = glm::vec3(inf);
+  hi = glm::vec3(-inf);
+  auto add = [&](MinMaxBvh const* bvh) {
+    if (!bvh || bvh->empty()) return;
+    Node const& r = bvh->root();
+    for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], r.lo[k]), hi[k] = std::max(hi[k], r.hi[k]);
+  };
+  for (auto const& p : tets) add(p.bvh);
+  for (auto const& p : hexes) add(p.bvh);
+}
+
+inline uint64_t Scene::cell_count() const {
+  uint64_t n = 0;
+  for (auto const& p : tets) n += p.mesh.cell_count();
+  for (auto const& p : hexes) n += p.mesh.cell_count();
+  return n;
+}
+
+namespace render_detail {
+
+template <int N> void add_part(ScenePart<N> const& part, CellMesh<N> const* mesh, PreparedScene& out, size_t index) {
+  std::string const what = std::string(N == 4 ? "tetrahedral" : "hexahedral") + " part " + std::to_string(index);
+  if (!part.bvh) throw InvalidArgument(what + " has no BVH");
+  if (!part.mesh.has_values()) throw InvalidMesh(what + " has no scalar values");
+  if (part.bvh->item_count() != part.mesh.cell_count())
+    throw InvalidArgument(what + ": BVH built over " + std::to_string(part.bvh->item_count()) + " cells, mesh has " +
+                          std::to_string(part.mesh.cell_count()));
+  ValueRanges const& r = part.ranges ? *part.ranges : part.bvh->ranges();
+  PreparedPart pp{TreeView(*part.bvh, r), nullptr, nullptr};
+  if constexpr (N == 4) pp.tets = mesh;
+  else pp.hexes = mesh;
+  out.parts.push_back(pp);
+}
+
+inline PreparedScene prepare(Scene const& scene) {
+  PreparedScene s;
+  for (size_t i = 0; i < scene.tets.size(); ++i) add_part(scene.tets[i], &scene.tets[i].mesh, s, i);
+  for (size_t i = 0; i < scene.hexes.size(); ++i) add_part(scene.hexes[i], &scene.hexes[i].mesh, s, i);
+  scene.bounds(s.lo, s.hi);
+  float const d = glm::length(s.hi - s.lo);
+  s.diagonal = std::isfinite(d) && d > 0.f ? d : 1.f;
+  return s;
+}
+
+inline void check_camera(Camera const& cam) {
+  if (cam.width < 1 || cam.height < 1)
+    throw InvalidArgument("image size " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
+                          ": both must be at least 1");
+}
+
+inline void check_tile(Camera const& cam, Tile const& t) {
+  if (t.x0 < 0 || t.y0 < 0 || t.w < 0 || t.h < 0 || t.x0 + t.w > cam.width || t.y0 + t.h > cam.height)
+    throw InvalidArgument("tile outside the image");
+}
+
+inline void check_iso(IsoParams const& p) {
+  if (p.surfaces.empty() || p.surfaces.size() > size_t(IsoSet::max_count))
+    throw InvalidArgument("isosurface rendering needs 1 to 8 isovalues, got " + std::to_string(p.surfaces.size()));
+  for (auto const& s : p.surfaces)
+    if (!std::isfinite(s.value) || !(s.opacity >= 0.f && s.opacity <= 1.f))
+      throw InvalidArgument("isovalues must be finite and opacities in [0, 1]");
+  if (p.ao_samples < 0 || p.ao_samples > 1024) throw InvalidArgument("ambient occlusion samples must be in 0..1024");
+  if (p.roots.method == CellIsoMethod::neubauer && (p.roots.neubauer_steps < 0 || p.roots.neubauer_steps > 64))
+    throw InvalidArgument("Neubauer steps must be in 0..64");
+}
+
+/// Values where the transfer function's opacity is not zero, as merged
+/// intervals (at most ValueWindows::max_count; beyond that, gaps merge).
+inline ValueWindows opacity_windows(TransferFunction const& tf) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  std::vector<std::pair<float, float>> w;
+  auto push = [&](float a, float b) {
+    if (!w.empty() && a <= w.back().second) w.back().second = std::max(w.back().second, b);
+    else w.emplace_back(a, b);
+  };
+  if (tf.rgba.front().a > 0.f) push(-inf, tf.values.front());
+  for (size_t i = 0; i + 1 < tf.values.size(); ++i)
+    if (tf.rgba[i].a > 0.f || tf.rgba[i + 1].a > 0.f) push(tf.values[i], tf.values[i + 1]);
+  if (tf.rgba.back().a > 0.f) push(tf.values.back(), inf);
+  while (w.size() > size_t(ValueWindows::max_count)) {  // merge across the smallest gap
+    size_t best = 0;
+    for (size_t i = 1; i + 1 < w.size(); ++i)
+      if (w[i + 1].first - w[i].second < w[best + 1].first - w[best].second) best = i;
+    w[best].second = w[best + 1].second;
+    w.erase(w.begin() + long(best) + 1);
+  }
+  ValueWindows out;
+  out.count = int(w.size());
+  for (size_t i = 0; i < w.size(); ++i) out.lo[i] = w[i].first, out.hi[i] = w[i].second;
+  return out;
+}
+
+/// 4096 entries: the piecewise-linear function is reproduced to within
+/// 1/4096 of its range between control points.
+inline PreparedTf tf_table(TransferFunction const& tf, float step) {
+  constexpr int size = 4096;
+  PreparedTf t;
+  t.tf = &tf;
+  t.lo = tf.values.front();
+  float const hi = tf.values.size() > 1 ? tf.values.back() : t.lo + 1.f;
+  t.scale = float(size - 1) / (hi - t.lo);
+  t.r.resize(size), t.g.resize(size), t.b.resize(size), t.a.resize(size);
+  for (int i = 0; i < size; ++i) {
+    glm::vec4 const c = tf(t.lo + float(i) / t.scale);
+    t.r[size_t(i)] = c.r, t.g[size_t(i)] = c.g, t.b[size_t(i)] = c.b;
+    t.a[size_t(i)] = 1.f - std::pow(1.f - std::min(c.a, 0.999999f), step / tf.unit_distance);
+  }
+  return t;
+}
+
+template <class F> void for_tiles(Camera const& cam, int tile_size, F const& f) {
+  int const ts = std::max(4, tile_size);
+  int const nx = (cam.width + ts - 1) / ts, ny = (cam.height + ts - 1) / ts;
+  tbb::parallel_for(tbb::blocked_range2d<int>(0, ny, 1, 0, nx, 1), [&](tbb::blocked_range2d<int> const& r) {
+    for (int ty = r.rows().begin(); ty < r.rows().end(); ++ty)
+      for (int tx = r.cols().begin(); tx < r.cols().end(); ++tx) {
+        Tile const t{tx * ts, ty * ts, std::min(ts, cam.width - tx * ts), std::min(ts, cam.height - ty * ts)};
+        f(t);
+      }
+  });
+}
+
+struct DvrSetup {
+  PreparedScene scene;
+  PreparedTf table;
+};
+
+inline void prepare_dvr(Scene const& scene, DvrParams const& p, DvrSetup& out) {
+  p.tf.check();
+  if (p.group_size < 1 || p.group_size > max_sample_group)
+    throw InvalidArgument("sample group size " + std::to_string(p.group_size) + " outside 1..32");
+  if (!(p.termination > 0.f && p.termination <= 1.f)) throw InvalidArgument("termination opacity must be in (0, 1]");
+  out.scene = prepare(scene);
+  float const step = p.step > 0.f ? p.step : out.scene.diagonal / 500.f;
+  if (!std::isfinite(step) || !(step > 0.f)) throw InvalidArgument("DVR step must be positive and finite");
+  if (out.scene.diagonal / step > 1e7f) throw InvalidArgument("DVR step too small for the scene (over 10^7 samples per ray)");
+  out.scene.step = step;
+  out.scene.windows = p.empty_space_skipping ? opacity_windows(p.tf) : ValueWindows{};
+  out.table = tf_table(p.tf, step);
+  out.scene.tf = &out.table;
+}
+
+}  // namespace render_detail
+
+inline Image render_iso(Scene const& scene, Camera const& cam, IsoParams const& p, RenderOptions const& o) {
+  render_detail::check_camera(cam);
+  render_detail::check_iso(p);
+  PreparedScene const s = render_detail::prepare(scene);
+  Image img(cam.width, cam.height);
+  render_detail::for_tiles(cam, o.tile_size, [&](Tile const& t) { dispatch<RenderTileEntry>(o.isa, s, cam, p, o, t, img); });
+  return img;
+}
+
+inline Image render_dvr(Scene const& scene, Camera const& cam, DvrParams const& p, RenderOptions const& o) {
+  render_detail::check_camera(cam);
+  render_detail::DvrSetup setup;
+  render_detail::prepare_dvr(scene, p, setup);
+  Image img(cam.width, cam.height);
+  render_detail::for_tiles(cam, o.tile_size, [&](Tile const& t) {
+    dispatch<RenderTileEntry>(o.isa, setup.scene, cam, p, o, t, img);
+  });
+  return img;
+}
+
+inline void render_tile(Scene const& scene, Camera const& cam, IsoParams const& p, Tile tile, Image& out,
+                        RenderOptions const& o) {
+  render_detail::check_camera(cam);
+  render_detail::check_tile(cam, tile);
+  render_detail::check_iso(p);
+  if (out.width != cam.width || out.height != cam.height) throw InvalidArgument("image size differs from the camera's");
+  PreparedScene const s = render_detail::prepare(scene);
+  dispatch<RenderTileEntry>(o.isa, s, cam, p, o, tile, out);
+}
+
+inline void render_tile(Scene const& scene, Camera const& cam, DvrParams const& p, Tile tile, Image& out,
+                        RenderOptions const& o) {
+  render_detail::check_camera(cam);
+  render_detail::check_tile(cam, tile);
+  if (out.width != cam.width || out.height != cam.height) throw InvalidArgument("image size differs from the camera's");
+  render_detail::DvrSetup setup;
+  render_detail::prepare_dvr(scene, p, setup);
+  dispatch<RenderTileEntry>(o.isa, setup.scene, cam, p, o, tile, out);
+}
+
+}  // namespace cellray

@@ -1,0 +1,41 @@
+#pragma once
+// What a render prepares once on the calling thread and every tile reads:
+// tree views, the scene bounds, the transfer-function table. Plain data,
+// shared by the baseline side and the ISA units.
+
+#include <cstdint>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "../mesh/cell_mesh.hpp"
+#include "../traverse/sample.hpp"
+#include "../traverse/tree_view.hpp"
+#include "transfer_function.hpp"
+
+namespace cellray {
+
+struct PreparedPart {
+  TreeView tree;
+  TetMesh const* tets = nullptr;   ///< exactly one of tets / hexes is set
+  HexMesh const* hexes = nullptr;
+};
+
+/// Transfer function sampled into a table with the opacity corrected for the
+/// sample spacing (DVR samples mode), plus its raw form for cell segments.
+struct PreparedTf {
+  std::vector<float> r, g, b, a;  ///< `size` entries over [lo, lo + (size - 1) / scale]
+  float lo = 0.f, scale = 1.f;
+  TransferFunction const* tf = nullptr;
+};
+
+struct PreparedScene {
+  std::vector<PreparedPart> parts;
+  glm::vec3 lo{0.f}, hi{0.f};  ///< bounds of every part
+  float diagonal = 1.f;
+  float step = 0.f;            ///< DVR sample spacing (world units)
+  ValueWindows windows;        ///< DVR: values with nonzero opacity (everything without skipping)
+  PreparedTf const* tf = nullptr;
+};
+
+}  // namespace cellray

@@ -1,0 +1,428 @@
+#pragma once
+// Bodies of RenderTileEntry (ISA units only): pixel-block packets, iso
+// shading with shadows, ambient occlusion and transparency, and DVR.
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include <glm/geometric.hpp>
+
+#include "../traverse/cell_ops.hpp"
+#include "../traverse/first_hit.hpp"
+#include "../traverse/sample.hpp"
+#include "../traverse/segments.hpp"
+#include "render.hpp"
+#include "render_common.hpp"
+
+namespace cellray {
+inline namespace CELLRAY_ISA_NS {
+namespace impl {
+
+/// Pixel block per packet: 2x2 (4 lanes), 4x2 (8), 4x4 (16), 1x1 (scalar).
+template <class A> inline constexpr int block_w = width<A> >= 8 ? 4 : width<A> == 4 ? 2 : 1;
+template <class A> inline constexpr int block_h = width<A> / block_w<A>;
+
+/// Primary rays of the pixel block at (bx, by), clipped to the tile.
+template <class A>
+inline RayPacket<A> camera_packet(Camera const& cam, Tile const& tile, int bx, int by, int (&px)[width<A>],
+                                  int (&py)[width<A>], uint32_t& valid) {
+  Ray rays[width<A>];
+  valid = 0;
+  for (int l = 0; l < width<A>; ++l) {
+    int const x = bx + l % block_w<A>, y = by + l / block_w<A>;
+    bool const in = x < tile.x0 + tile.w && y < tile.y0 + tile.h;
+    px[l] = in ? x : bx;
+    py[l] = in ? y : by;
+    if (in) valid |= 1u << l;
+    rays[l] = Ray{cam.eye, 0.f, cam.direction(float(px[l]), float(py[l])), std::numeric_limits<float>::infinity()};
+  }
+  return load_rays<A>(rays, width<A>);
+}
+
+/// Per-lane nearest iso hit over every part of the scene.
+template <class A> struct SceneHit {
+  vfloat<A> t;
+  vint<A> iso, item, part;  ///< part: index into PreparedScene::parts
+};
+
+template <class A, int N>
+inline void hit_part(PreparedPart const& part, CellMesh<N> const& mesh, RayPacket<A> const& r, vmask<A> active,
+                     IsoSet const& isos, CellIsoOptions const& roots, Traversal how, int threshold, int part_index,
+                     SceneHit<A>& best) {
+  FirstHitQuery<A, N> q{part.tree, mesh, r, isos, roots, {best.t, vint<A>(-1), vint<A>(-1)}};
+  switch (how) {
+    case Traversal::packet: traverse_packet<A>(part.tree, r, active, q); break;
+    case Traversal::hybrid: traverse_packet<A>(part.tree, r, active, q, 0, threshold); break;
+    case Traversal::spmd: traverse_spmd<A>(part.tree, r, active, q); break;
+  }
+  vmask<A> const better = q.hit.t < best.t;
+  auto const bi = simd::to_int_mask(better);
+  best.t = simd::select(better, q.hit.t, best.t);
+  best.iso = simd::select(bi, q.hit.iso, best.iso);
+  best.item = simd::select(bi, q.hit.item, best.item);
+  best.part = simd::select(bi, vint<A>(part_index), best.part);
+}
+
+template <class A>
+inline SceneHit<A> nearest_hit(PreparedScene const& s, RayPacket<A> const& r, vmask<A> active, IsoSet const& isos,
+                               CellIsoOptions const& roots, Traversal how, int threshold) {
+  SceneHit<A> best{r.tmax, vint<A>(-1), vint<A>(-1), vint<A>(-1)};
+  for (size_t p = 0; p < s.parts.size(); ++p) {
+    PreparedPart const& part = s.parts[p];
+    if (part.tets) hit_part<A>(part, *part.tets, r, active, isos, roots, how, threshold, int(p), best);
+    else hit_part<A>(part, *part.hexes, r, active, isos, roots, how, threshold, int(p), best);
+  }
+  return best;
+}
+
+/// Unit shading normal at a hit (two-sided: faces the ray origin).
+inline glm::vec3 normal_at(PreparedPart const& part, uint64_t slot, glm::vec3 p, glm::vec3 dir, GradientMethod m) {
+  uint64_t const cell = part.tree.item(slot);
+  auto eval = [&](auto const& mesh) {
+    constexpr int N = std::decay_t<decltype(mesh)>::corners;
+    CellCorners<scalar, N> const c = broadcast_corners<scalar, N>(mesh, cell);
+    Vec3<scalar> const d{dir.x, dir.y, dir.z};
+    float const ex = c.x[1] - c.x[0], ey = c.y[1] - c.y[0], ez = c.z[1] - c.z[0];
+    float const h = 0.01f * std::sqrt(ex * ex + ey * ey + ez * ez);
+    Vec3<scalar> const g = CellOps<scalar, N>::gradient(c, Vec3<scalar>{p.x, p.y, p.z}, m, h);
+    Vec3<scalar> const n = face_forward<scalar>(shading_normal<scalar>(g, d), d);
+    return glm::vec3(n.x, n.y, n.z);
+  };
+  return part.tets ? eval(*part.tets) : eval(*part.hexes);
+}
+
+/// Deterministic per-pixel hash in [0, 1): AO directions must not flicker
+/// between frames or differ between ISAs.
+inline float hash01(uint32_t a, uint32_t b) {
+  uint32_t h = a * 0x9E3779B1u ^ (b + 0x7F4A7C15u) * 0x85EBCA77u;
+  h ^= h >> 15;
+  h *= 0x2C1B3C6Du;
+  h ^= h >> 12;
+  h *= 0x297A2D39u;
+  h ^= h >> 15;
+  return float(h >> 8) * (1.f / 16777216.f);
+}
+
+template <class A>
+void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const& p, RenderOptions const& o,
+                     Tile const& tile, Image& out) {
+  constexpr int W = width<A>;
+  int const threshold = o.hybrid_threshold > 0 ? o.hybrid_threshold : std::max(1, W / 4);
+  IsoSet isos;
+  isos.count = int(p.surfaces.size());
+  for (int k = 0; k < isos.count; ++k) isos.values[k] = p.surfaces[size_t(k)].value;
+  float const eps = 1e-5f * s.diagonal;
+  float const ao_radius = p.ao_radius > 0.f ? p.ao_radius : 0.05f * s.diagonal;
+  bool const headlight = !(glm::length(p.light_dir) > 0.f);
+  glm::vec3 const light = headlight ? glm::vec3(0.f) : glm::normalize(p.light_dir);
+
+  for (int by = tile.y0; by < tile.y0 + tile.h; by += block_h<A>)
+    for (int bx = tile.x0; bx < tile.x0 + tile.w; bx += block_w<A>) {
+      int px[W], py[W];
+      uint32_t valid;
+      RayPacket<A> r = camera_packet<A>(cam, tile, bx, by, px, py, valid);
+      glm::vec3 color[W];
+      float alpha[W];
+      float tmin[W];
+      for (int l = 0; l < W; ++l) color[l] = glm::vec3(0.f), alpha[l] = 0.f, tmin[l] = 0.f;
+      uint32_t live = valid;
+      // Front-to-back layers: continue behind semi-transparent surfaces.
+      for (int layer = 0; layer < 16 && live; ++layer) {
+        r.tmin = simd::load<A>(tmin);
+        SceneHit<A> const h = nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots, o.traversal, threshold);
+        auto const t = simd::to_array<A>(h.t);
+        auto const iso = simd::to_array<A>(h.iso), item = simd::to_array<A>(h.item), part = simd::to_array<A>(h.part);
+        auto const dx = simd::to_array<A>(r.dx), dy = simd::to_array<A>(r.dy), dz = simd::to_array<A>(r.dz);
+        // Hit points, normals and the light per lane; shadow and AO rays
+        // from these points form packets of their own.
+        glm::vec3 pos[W], nrm[W], ldir[W], base[W];
+        float opacity[W];
+        uint32_t hit_bits = 0;
+        for (int l = 0; l < W; ++l) {
+          if (!((live >> l) & 1u) || item[l] < 0) continue;
+          hit_bits |= 1u << l;
+          glm::vec3 const d(dx[l], dy[l], dz[l]);
+          pos[l] = cam.eye + t[l] * d;
+          nrm[l] = normal_at(s.parts[size_t(part[l])], uint64_t(item[l]), pos[l], d, p.normals);
+          ldir[l] = headlight ? -glm::normalize(d) : light;
+          IsoSurface const& surf = p.surfaces[size_t(iso[l])];
+          base[l] = surf.color;
+          opacity[l] = surf.opacity;
+        }
+        float visibility[W], occlusion[W];
+        for (int l = 0; l < W; ++l) visibility[l] = 1.f, occlusion[l] = 0.f;
+        if (hit_bits && p.shadows) {
+          Ray sr[W];
+          for (int l = 0; l < W; ++l) {
+            bool const h1 = (hit_bits >> l) & 1u;
+            sr[l] = Ray{h1 ? pos[l] + eps * nrm[l] : cam.eye, h1 ? eps : 0.f, h1 ? ldir[l] : glm::vec3(0, 0, 1),
+                        h1 ? std::numeric_limits<float>::infinity() : -1.f};
+          }
+          RayPacket<A> const srp = load_rays<A>(sr, W);
+          SceneHit<A> const sh = nearest_hit<A>(s, srp, simd::mask_from_bits<A>(hit_bits), isos, p.roots,
+                                                o.secondary_traversal, threshold);
+          auto const sitem = simd::to_array<A>(sh.item), siso = simd::to_array<A>(sh.iso);
+          for (int l = 0; l < W; ++l)
+            if (((hit_bits >> l) & 1u) && sitem[l] >= 0) visibility[l] = 1.f - p.surfaces[size_t(siso[l])].opacity;
+        }
+        for (int k = 0; hit_bits && k < p.ao_samples; ++k) {
+          Ray ar[W];
+          for (int l = 0; l < W; ++l) {
+            bool const h1 = (hit_bits >> l) & 1u;
+            glm::vec3 d(0, 0, 1);
+            if (h1) {
+              // Cosine-weighted direction about the normal.
+              uint32_t const pix = uint32_t(py[l]) * uint32_t(cam.width) + uint32_t(px[l]);
+              float const u1 = hash01(pix, uint32_t(2 * k + 64 * layer)), u2 = hash01(pix, uint32_t(2 * k + 1 + 64 * layer));
+              float const rr = std::sqrt(u1), phi = 6.2831853f * u2;
+              glm::vec3 const n = nrm[l];
+              glm::vec3 const a = std::fabs(n.x) > 0.5f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
+              glm::vec3 const tx = glm::normalize(glm::cross(a, n)), ty = glm::cross(n, tx);
+              d = rr * std::cos(phi) * tx + rr * std::sin(phi) * ty + std::sqrt(std::max(0.f, 1.f - u1)) * n;
+            }
+            ar[l] = Ray{h1 ? pos[l] + eps * nrm[l] : cam.eye, h1 ? eps : 0.f, d, h1 ? ao_radius : -1.f};
+          }
+          RayPacket<A> const arp = load_rays<A>(ar, W);
+          SceneHit<A> const ah = nearest_hit<A>(s, arp, simd::mask_from_bits<A>(hit_bits), isos, p.roots,
+                                                o.secondary_traversal, threshold);
+          auto const aitem = simd::to_array<A>(ah.item);
+          for (int l = 0; l < W; ++l)
+            if (((hit_bits >> l) & 1u) && aitem[l] >= 0) occlusion[l] += 1.f / float(p.ao_samples);
+        }
+        uint32_t next = 0;
+        for (int l = 0; l < W; ++l) {
+          if (!((hit_bits >> l) & 1u)) continue;
+          glm::vec3 const v = -glm::normalize(glm::vec3(dx[l], dy[l], dz[l]));
+          float const ndl = std::max(0.f, glm::dot(nrm[l], ldir[l]));
+          glm::vec3 const hv = glm::normalize(ldir[l] + v);
+          float const spec = ndl > 0.f ? std::pow(std::max(0.f, glm::dot(nrm[l], hv)), p.shininess) : 0.f;
+          glm::vec3 const shade = base[l] * (p.ambient * (1.f - occlusion[l]) + p.diffuse * ndl * visibility[l]) +
+                                  glm::vec3(p.specular * spec * visibility[l]);
+          float const a = opacity[l] * (1.f - alpha[l]);
+          color[l] += a * shade;
+          alpha[l] += a;
+          if (alpha[l] < 0.99f) {
+            next |= 1u << l;
+            tmin[l] = t[l] + std::max(eps, 1e-5f * t[l]);
+          }
+        }
+        live = next;
+      }
+      for (int l = 0; l < W; ++l) {
+        if (!((valid >> l) & 1u)) continue;
+        float* px_out = out.pixel(px[l], py[l]);
+        glm::vec3 const c = color[l] + (1.f - alpha[l]) * p.background.a * glm::vec3(p.background);
+        px_out[0] = c.x, px_out[1] = c.y, px_out[2] = c.z;
+        px_out[3] = alpha[l] + (1.f - alpha[l]) * p.background.a;
+      }
+    }
+}
+
+/// Transfer function as a lookup table over [lo, hi] with the opacity
+/// already corrected for the sample spacing: a' = 1 - (1 - a)^(step / unit).
+template <class A> struct TfTable {
+  float const* r;
+  float const* g;
+  float const* b;
+  float const* a;
+  int size;
+  float lo, scale;  ///< index = (v - lo) * scale
+
+  /// Colour and corrected opacity per lane (NaN values: transparent).
+  void lookup(vfloat<A> const& v, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca) const {
+    vmask<A> const ok = !simd::isnan(v);
+    vfloat<A> const x = simd::min(simd::max((simd::select(ok, v, vfloat<A>(lo)) - vfloat<A>(lo)) * vfloat<A>(scale),
+                                            vfloat<A>(0.f)),
+                                  vfloat<A>(float(size - 1) - 1e-3f));
+    vint<A> const i = xsimd_trunc<A>(x);
+    vfloat<A> const f = x - to_float<A>(i);
+    vint<A> const j = i + vint<A>(1);
+    cr = simd::gather(r, i) + f * (simd::gather(r, j) - simd::gather(r, i));
+    cg = simd::gather(g, i) + f * (simd::gather(g, j) - simd::gather(g, i));
+    cb = simd::gather(b, i) + f * (simd::gather(b, j) - simd::gather(b, i));
+    ca = simd::select(ok, simd::gather(a, i) + f * (simd::gather(a, j) - simd::gather(a, i)), vfloat<A>(0.f));
+  }
+
+  template <class B> static vint<B> xsimd_trunc(vfloat<B> const& x) {
+    if constexpr (std::is_same_v<B, scalar>) return int32_t(x);
+    else return xsimd::batch_cast<int32_t>(x);
+  }
+  template <class B> static vfloat<B> to_float(vint<B> const& i) {
+    if constexpr (std::is_same_v<B, scalar>) return float(i);
+    else return xsimd::batch_cast<float>(i);
+  }
+};
+
+/// Where each ray leaves the scene's bounding box.
+template <class A> inline vfloat<A> scene_exit(RayPacket<A> const& r, PreparedScene const& s) {
+  vfloat<A> const ax = (vfloat<A>(s.lo.x) - r.ox) * r.rx, bx = (vfloat<A>(s.hi.x) - r.ox) * r.rx;
+  vfloat<A> const ay = (vfloat<A>(s.lo.y) - r.oy) * r.ry, by = (vfloat<A>(s.hi.y) - r.oy) * r.ry;
+  vfloat<A> const az = (vfloat<A>(s.lo.z) - r.oz) * r.rz, bz = (vfloat<A>(s.hi.z) - r.oz) * r.rz;
+  return simd::min(simd::min(simd::max(ax, bx), simd::max(ay, by)), simd::max(az, bz));
+}
+
+/// A segment in a lane's list (a type of this ISA unit, so the containers
+/// instantiated for it are too: see the ODR rule in dispatch.hpp).
+struct LaneSegment {
+  CellSegment s;
+};
+
+/// Cell-segment DVR: the cells each ray crosses, window by window, each
+/// segment integrated in pieces of at most `step` with the exact transfer
+/// function (midpoint rule). The value is linear along a segment: exact in
+/// tets, the chord between entry and exit values in hexes.
+template <class A>
+void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> const& inside,
+                        vfloat<A> const& t_enter, vfloat<A> const& t_exit, DvrParams const& p, Traversal how,
+                        int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca) {
+  constexpr int W = width<A>;
+  TransferFunction const& tf = *s.tf->tf;
+  float const window = s.step * float(p.group_size);
+  auto const enter = simd::to_array<A>(t_enter), exit_t = simd::to_array<A>(t_exit);
+  float col[W][3] = {}, alpha[W] = {}, t_cur[W];
+  uint32_t live = simd::movemask(inside);
+  for (int l = 0; l < W; ++l) t_cur[l] = enter[l];
+  while (live) {
+    alignas(64) float lo_a[W], hi_a[W];
+    for (int l = 0; l < W; ++l) lo_a[l] = t_cur[l], hi_a[l] = t_cur[l] + window;
+    vfloat<A> const lo = simd::load<A>(lo_a), hi = simd::load<A>(hi_a);
+    vmask<A> const act = simd::mask_from_bits<A>(live);
+    float end[W];
+    for (int l = 0; l < W; ++l) end[l] = std::min(hi_a[l], exit_t[l]);
+    std::vector<LaneSegment> lane_segs[W];
+    for (PreparedPart const& part : s.parts) {
+      auto run = [&](auto const& mesh) {
+        constexpr int N = std::decay_t<decltype(mesh)>::corners;
+        auto q = std::make_unique<SegmentQuery<A, N>>(part.tree, mesh, r, s.windows, lo, hi);
+        collect_segments(*q, act, how, threshold);
+        for (int l = 0; l < W; ++l) {
+          end[l] = std::min(end[l], q->cut[l]);
+          for (int i = 0; i < q->count[l]; ++i) lane_segs[l].push_back(LaneSegment{q->seg[l][i]});
+        }
+      };
+      if (part.tets) run(*part.tets);
+      else run(*part.hexes);
+    }
+    uint32_t next = 0;
+    for (uint32_t b = live; b; b &= b - 1) {
+      int const l = __builtin_ctz(b);
+      auto& segs = lane_segs[l];
+      std::sort(segs.begin(), segs.end(), [](LaneSegment const& x, LaneSegment const& y) { return x.s.t_in < y.s.t_in; });
+      float prev = t_cur[l];
+      for (LaneSegment const& rec : segs) {
+        CellSegment const& sg = rec.s;
+        float const a = std::max(sg.t_in, prev), e = std::min(sg.t_out, end[l]);
+        if (!(e > a)) continue;
+        float const len = sg.t_out - sg.t_in;
+        int const pieces = std::max(1, int(std::ceil((e - a) / s.step)));
+        float const d = (e - a) / float(pieces);
+        for (int i = 0; i < pieces && alpha[l] < p.termination; ++i) {
+          float const tm = a + (float(i) + 0.5f) * d;
+          float const v = len > 0.f ? sg.v_in + (tm - sg.t_in) / len * (sg.v_out - sg.v_in) : sg.v_in;
+          glm::vec4 const c = tf(v);
+          if (!(c.a > 0.f)) continue;
+          float const ad = 1.f - std::pow(1.f - std::min(c.a, 0.999999f), d / tf.unit_distance);
+          float const w = (1.f - alpha[l]) * ad;
+          col[l][0] += w * c.r, col[l][1] += w * c.g, col[l][2] += w * c.b;
+          alpha[l] += w;
+        }
+        prev = e;
+      }
+      t_cur[l] = end[l];
+      if (alpha[l] < p.termination && t_cur[l] < exit_t[l]) next |= 1u << l;
+    }
+    live = next;
+  }
+  alignas(64) float o[4][W];
+  for (int l = 0; l < W; ++l) o[0][l] = col[l][0], o[1][l] = col[l][1], o[2][l] = col[l][2], o[3][l] = alpha[l];
+  cr = simd::load<A>(o[0]), cg = simd::load<A>(o[1]), cb = simd::load<A>(o[2]), ca = simd::load<A>(o[3]);
+}
+
+template <class A>
+void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const& p, RenderOptions const& o,
+                     Tile const& tile, Image& out) {
+  constexpr int W = width<A>;
+  int const threshold = o.hybrid_threshold > 0 ? o.hybrid_threshold : std::max(1, W / 4);
+  PreparedTf const& ptf = *s.tf;
+  TfTable<A> const table{ptf.r.data(), ptf.g.data(), ptf.b.data(), ptf.a.data(), int(ptf.r.size()), ptf.lo, ptf.scale};
+  float const step = s.step;
+  int const G = p.group_size;
+  for (int by = tile.y0; by < tile.y0 + tile.h; by += block_h<A>)
+    for (int bx = tile.x0; bx < tile.x0 + tile.w; bx += block_w<A>) {
+      int px[W], py[W];
+      uint32_t valid;
+      RayPacket<A> r = camera_packet<A>(cam, tile, bx, by, px, py, valid);
+      // The part of each ray inside the scene's bounds.
+      vfloat<A> t_enter;
+      vmask<A> inside = simd::mask_from_bits<A>(valid) &&
+                        box_hit(r, &s.lo.x, &s.hi.x, vfloat<A>(0.f), vfloat<A>(std::numeric_limits<float>::max()), t_enter);
+      vfloat<A> const t_exit = scene_exit(r, s);
+      vfloat<A> cr(0.f), cg(0.f), cb(0.f), ca(0.f);
+      if (p.mode == DvrMode::samples) {
+        // Samples sit at t = (k + 0.5) * step from the entry point.
+        vfloat<A> t0 = t_enter + vfloat<A>(0.5f * step);
+        vmask<A> active = inside && t0 <= t_exit;
+        while (simd::any(active)) {
+          alignas(64) float values[max_sample_group][W];
+          for (int g = 0; g < G; ++g)
+            for (int l = 0; l < W; ++l) values[g][l] = std::numeric_limits<float>::quiet_NaN();
+          for (PreparedPart const& part : s.parts) {
+            auto run = [&](auto const& mesh) {
+              constexpr int N = std::decay_t<decltype(mesh)>::corners;
+              SampleQuery<A, N> q(part.tree, mesh, r, s.windows, t0, step, G, active);
+              sample_group(q, active, o.traversal, threshold);
+              for (int g = 0; g < G; ++g)
+                for (int l = 0; l < W; ++l)
+                  if (values[g][l] != values[g][l]) values[g][l] = q.values[g][l];
+            };
+            if (part.tets) run(*part.tets);
+            else run(*part.hexes);
+          }
+          for (int g = 0; g < G; ++g) {
+            vfloat<A> const t = t0 + vfloat<A>(step * float(g));
+            vmask<A> const use = active && t <= t_exit && ca < vfloat<A>(p.termination);
+            if (simd::none(use)) break;
+            vfloat<A> sr, sg, sb, sa;
+            table.lookup(simd::load<A>(values[g]), sr, sg, sb, sa);
+            vfloat<A> const w = simd::select(use, (vfloat<A>(1.f) - ca) * sa, vfloat<A>(0.f));
+            cr = cr + w * sr, cg = cg + w * sg, cb = cb + w * sb, ca = ca + w;
+          }
+          t0 = t0 + vfloat<A>(step * float(G));
+          active = active && t0 <= t_exit && ca < vfloat<A>(p.termination);
+        }
+      } else {
+        integrate_segments<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, cr, cg, cb, ca);
+      }
+      auto const ar = simd::to_array<A>(cr), ag = simd::to_array<A>(cg), ab = simd::to_array<A>(cb),
+                 aa = simd::to_array<A>(ca);
+      for (int l = 0; l < W; ++l) {
+        if (!((valid >> l) & 1u)) continue;
+        float* q = out.pixel(px[l], py[l]);
+        float const rest = (1.f - aa[l]) * p.background.a;
+        q[0] = ar[l] + rest * p.background.r;
+        q[1] = ag[l] + rest * p.background.g;
+        q[2] = ab[l] + rest * p.background.b;
+        q[3] = aa[l] + rest;
+      }
+    }
+}
+
+}  // namespace impl
+}  // namespace CELLRAY_ISA_NS
+
+template <class Arch>
+void RenderTileEntry<Arch>::run(PreparedScene const& s, Camera const& cam, IsoParams const& p, RenderOptions const& o,
+                                Tile tile, Image& out) {
+  impl::render_iso_tile<Arch>(s, cam, p, o, tile, out);
+}
+template <class Arch>
+void RenderTileEntry<Arch>::run(PreparedScene const& s, Camera const& cam, DvrParams const& p, RenderOptions const& o,
+                                Tile tile, Image& out) {
+  impl::render_dvr_tile<Arch>(s, cam, p, o, tile, out);
+}
+
+}  // namespace cellray
