@@ -81,7 +81,7 @@ TEST_CASE("first hit: packet, SPMD, hybrid and single-ray agree with a brute-for
   }
 }
 
-TEST_CASE("first hit: an empty tree finds nothing; a [tmin, tmax] window is honoured", "[traverse][isa]") {
+TEST_CASE("first hit: an empty tree finds nothing, and a [tmin, tmax] window is honoured", "[traverse][isa]") {
   auto g = generate_tets(6 * 5 * 5 * 5, 2);
   TetMesh const mesh = g.mesh();
   IsoQuery q;

@@ -1,0 +1,152 @@
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <vector>
+
+#include <cellray/bvh/build.hpp>
+#include <cellray/bvh/refit.hpp>
+#include <cellray/mesh/generate.hpp>
+#include <cellray/render/render.hpp>
+
+#include "support/test_isa.hpp"
+
+using namespace cellray;
+
+namespace {
+
+/// Fraction of pixels whose 8-bit colour differs by more than `tol` levels.
+double fraction_off(Image const& a, Image const& b, int tol) {
+  auto pa = a.to_rgba8(), pb = b.to_rgba8();
+  REQUIRE(pa.size() == pb.size());
+  size_t off = 0;
+  for (size_t i = 0; i < pa.size(); i += 4) {
+    bool bad = false;
+    for (int c = 0; c < 3; ++c) bad |= std::abs(int(pa[i + c]) - int(pb[i + c])) > tol;
+    off += bad;
+  }
+  return double(off) / double(pa.size() / 4);
+}
+
+double rmse8(Image const& a, Image const& b) {
+  double s = 0;
+  for (size_t i = 0; i < a.rgba.size(); ++i) {
+    double const d = 255.0 * (double(a.rgba[i]) - double(b.rgba[i]));
+    s += d * d;
+  }
+  return std::sqrt(s / double(a.rgba.size()));
+}
+
+bool has_structure(Image const& img) {
+  auto px = img.to_rgba8();
+  int distinct = 0;
+  for (size_t i = 4; i < px.size(); i += 4) distinct += px[i] != px[0] || px[i + 1] != px[1] || px[i + 2] != px[2];
+  return distinct > int(px.size() / 4 / 20);  // at least 5% of pixels differ from the corner
+}
+
+IsoParams three_surfaces() {
+  IsoParams p;
+  p.surfaces = {{0.25f, {0.3f, 0.5f, 0.9f}, 0.4f}, {0.45f, {0.9f, 0.7f, 0.2f}, 0.6f}, {0.6f, {0.9f, 0.2f, 0.2f}, 1.f}};
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("iso and DVR: packet, SPMD and hybrid render the same image on every ISA", "[render][isa]") {
+  auto tets = generate_tets(20000, 2);
+  auto hexes = generate_hexes(4000, 2);
+  TetMesh const tm = tets.mesh();
+  HexMesh const hm = hexes.mesh();
+  MinMaxBvh const tb = build_minmax_bvh(tm), hb = build_minmax_bvh(hm);
+  for (int which = 0; which < 2; ++which) {
+    Scene const scene = which == 0 ? Scene(tm, tb) : Scene(hm, hb);
+    glm::vec3 lo, hi;
+    scene.bounds(lo, hi);
+    Camera const cam = fit_camera(lo, hi, 96, 80);
+    IsoParams iso = three_surfaces();
+    iso.shadows = true;
+    iso.ao_samples = 2;
+    DvrParams dvr;
+    dvr.tf = transfer_function_preset("viridis", 0.f, 0.75f);
+    dvr.tf.unit_distance = 0.2f;
+    RenderOptions o;
+    o.isa = Isa::sse4_2;
+    Image const iso_ref = render_iso(scene, cam, iso, o);
+    Image const dvr_ref = render_dvr(scene, cam, dvr, o);
+    CHECK(has_structure(iso_ref));
+    CHECK(has_structure(dvr_ref));
+    o.isa = test::isa();
+    for (Traversal t : {Traversal::packet, Traversal::spmd, Traversal::hybrid}) {
+      o.traversal = o.secondary_traversal = t;
+      INFO((which == 0 ? "tets " : "hexes ") << traversal_name(t) << " on " << isa_name(test::isa()));
+      // Different ISAs round differently (FMA, lane order of gathers);
+      // a pixel may flip at a silhouette or shadow edge, nothing more.
+      CHECK(fraction_off(render_iso(scene, cam, iso, o), iso_ref, 2) < 0.003);
+      CHECK(fraction_off(render_dvr(scene, cam, dvr, o), dvr_ref, 2) < 0.003);
+    }
+  }
+}
+
+TEST_CASE("a time step is a refit: same image as a tree built on that step", "[render][isa]") {
+  auto g = generate_tets(15000, 5);
+  TetMesh const step0 = g.mesh();
+  TetMesh const step1 = step0.with_array("field_t1");
+  MinMaxBvh const bvh0 = build_minmax_bvh(step0);
+  MinMaxBvh const bvh1 = build_minmax_bvh(step1);
+  ValueRanges const refit = refit_ranges(bvh0, step1);
+  glm::vec3 lo, hi;
+  Scene(step0, bvh0).bounds(lo, hi);
+  Camera const cam = fit_camera(lo, hi, 64, 64);
+  IsoParams const iso = three_surfaces();
+  RenderOptions o;
+  o.isa = test::isa();
+  Image const a = render_iso(Scene(step1, bvh0, &refit), cam, iso, o);
+  Image const b = render_iso(Scene(step1, bvh1), cam, iso, o);
+  Image const c = render_iso(Scene(step0, bvh0), cam, iso, o);
+  CHECK(fraction_off(a, b, 1) < 0.002);  // another tree, another visiting order: ties only
+  CHECK(fraction_off(a, c, 2) > 0.01);   // and the step really changed the picture
+}
+
+TEST_CASE("DVR: samples converge to cell segments, and empty-space skipping changes nothing", "[render][isa]") {
+  auto g = generate_tets(20000, 3);
+  TetMesh const m = g.mesh();
+  MinMaxBvh const bvh = build_minmax_bvh(m);
+  Scene const scene(m, bvh);
+  glm::vec3 lo, hi;
+  scene.bounds(lo, hi);
+  Camera const cam = fit_camera(lo, hi, 64, 64);
+  DvrParams p;
+  p.tf = transfer_function_preset("cool-warm", 0.f, 0.75f);
+  p.tf.unit_distance = 0.2f;
+  p.step = 0.004f;
+  RenderOptions o;
+  o.isa = test::isa();
+  Image const samples = render_dvr(scene, cam, p, o);
+  p.empty_space_skipping = false;
+  Image const no_skip = render_dvr(scene, cam, p, o);
+  CHECK(rmse8(samples, no_skip) < 0.01);
+  p.mode = DvrMode::segments;
+  Image const segments = render_dvr(scene, cam, p, o);
+  CHECK(rmse8(samples, segments) < 1.0);
+  p.step = 0.06f;  // coarse sampling is visibly off, so the check above means something
+  p.mode = DvrMode::samples;
+  CHECK(rmse8(render_dvr(scene, cam, p, o), segments) > rmse8(samples, segments));
+}
+
+TEST_CASE("render entry points reject bad parameters with a message", "[render]") {
+  auto g = generate_tets(600, 1);
+  TetMesh const m = g.mesh();
+  MinMaxBvh const bvh = build_minmax_bvh(m);
+  Scene const scene(m, bvh);
+  Camera const cam = fit_camera({-1, -1, -1}, {1, 1, 1}, 8, 8);
+  CHECK_THROWS_WITH(render_iso(scene, cam, IsoParams{}), Catch::Contains("1 to 8 isovalues"));
+  DvrParams d;
+  d.tf = transfer_function_preset("viridis", 0.f, 1.f);
+  d.group_size = 40;
+  CHECK_THROWS_WITH(render_dvr(scene, cam, d), Catch::Contains("group size 40"));
+  MinMaxBvh const other = build_minmax_bvh(generate_tets(6000, 1).mesh());
+  CHECK_THROWS_WITH(render_iso(Scene(m, other), cam, three_surfaces()), Catch::Contains("BVH built over"));
+  TetMesh const bare{view(g.xyz), view(g.cells)};
+  CHECK_THROWS_AS(render_iso(Scene(bare, bvh), cam, three_surfaces()), InvalidMesh);
+  CHECK_THROWS_AS(Camera::look_at({0, 0, 0}, {0, 0, 0}, {0, 1, 0}, 45.f, 8, 8), InvalidArgument);
+  CHECK_THROWS_AS(Camera::look_at({0, 0, 1}, {0, 0, 0}, {0, 1, 0}, 180.f, 8, 8), InvalidArgument);
+}
