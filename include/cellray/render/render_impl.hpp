@@ -38,7 +38,10 @@ inline RayPacket<A> camera_packet(Camera const& cam, Tile const& tile, int bx, i
     px[l] = in ? x : bx;
     py[l] = in ? y : by;
     if (in) valid |= 1u << l;
-    rays[l] = Ray{cam.eye, 0.f, cam.direction(float(px[l]), float(py[l])), std::numeric_limits<float>::infinity()};
+    // Unit directions: t is world distance, as DVR steps and opacity
+    // correction (per unit distance) assume.
+    rays[l] = Ray{cam.eye, 0.f, glm::normalize(cam.direction(float(px[l]), float(py[l]))),
+                  std::numeric_limits<float>::infinity()};
   }
   return load_rays<A>(rays, width<A>);
 }
@@ -358,7 +361,9 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
       RayPacket<A> r = camera_packet<A>(cam, tile, bx, by, px, py, valid);
       // The part of each ray inside the scene's bounds.
       vfloat<A> t_enter;
-      vmask<A> inside = simd::mask_from_bits<A>(valid) &&
+      // An empty scene's box (lo = +inf, hi = -inf) passes the slab test for
+      // every t: no ray is inside it (else the sample march never ends).
+      vmask<A> inside = simd::mask_from_bits<A>(s.lo.x <= s.hi.x ? valid : 0u) &&
                         box_hit(r, &s.lo.x, &s.hi.x, vfloat<A>(0.f), vfloat<A>(std::numeric_limits<float>::max()), t_enter);
       vfloat<A> const t_exit = scene_exit(r, s);
       vfloat<A> cr(0.f), cg(0.f), cb(0.f), ca(0.f);
