@@ -52,8 +52,11 @@ inline PreparedScene prepare(Scene const& scene) {
   for (size_t i = 0; i < scene.tets.size(); ++i) add_part(scene.tets[i], &scene.tets[i].mesh, s, i);
   for (size_t i = 0; i < scene.hexes.size(); ++i) add_part(scene.hexes[i], &scene.hexes[i].mesh, s, i);
   scene.bounds(s.lo, s.hi);
-  float const d = glm::length(s.hi - s.lo);
-  s.diagonal = std::isfinite(d) && d > 0.f ? d : 1.f;
+  // The diagonal in double: a box of finite floats can have a diagonal over
+  // FLT_MAX, and a default step of 1/500 would then never cross it.
+  bool const empty = !(s.lo.x <= s.hi.x && s.lo.y <= s.hi.y && s.lo.z <= s.hi.z);
+  double const d = glm::length(glm::dvec3(s.hi) - glm::dvec3(s.lo));
+  s.diagonal = empty || !(d > 0.0) ? 1.f : float(std::min(d, double(std::numeric_limits<float>::max())));
   return s;
 }
 

@@ -1,0 +1,46 @@
+#pragma once
+// Shared by the fuzz harnesses: a check that aborts with a message (so
+// libFuzzer records the input as a crash) and the invariants every grid a
+// reader returns must hold.
+
+#include <cstdio>
+#include <cstdlib>
+
+#include <cellray/io/grid.hpp>
+
+namespace cellray::fuzz {
+
+/// Stops the run with `what` on stderr: a broken invariant is a finding.
+[[noreturn]] inline void fail(char const* what) {
+  std::fprintf(stderr, "fuzz invariant broken: %s\n", what);
+  std::abort();
+}
+
+inline void require(bool ok, char const* what) {
+  if (!ok) fail(what);
+}
+
+/// What a reader promises about a grid it returns (grid.hpp): every vertex
+/// id is in range, every array has one value per vertex or kept cell, the
+/// views construct, and a cell array converts to a point array.
+inline void check_grid(UnstructuredGrid& g) {
+  require(g.xyz.size() % 3 == 0, "positions not a multiple of 3");
+  require(g.tets.size() % 4 == 0 && g.hexes.size() % 8 == 0, "cell index count not a multiple of the corners");
+  uint64_t const nv = g.vertex_count();
+  for (uint32_t v : g.tets) require(v < nv, "tet vertex id out of range");
+  for (uint32_t v : g.hexes) require(v < nv, "hex vertex id out of range");
+  for (auto const& a : g.point_arrays) require(a.values.size() == nv, "point array size differs from the vertex count");
+  for (auto const& a : g.cell_arrays)
+    require(a.tet_values.size() == g.tet_count() && a.hex_values.size() == g.hex_count(),
+            "cell array size differs from the kept cell count");
+  TetMesh const tm = g.tet_mesh();  // throws InvalidMesh on a size mismatch: that would be a reader bug
+  HexMesh const hm = g.hex_mesh();
+  require(tm.cell_count() == g.tet_count() && hm.cell_count() == g.hex_count(), "view cell count");
+  if (!g.cell_arrays.empty()) {
+    std::string const name = "fuzz_point_" + g.cell_arrays[0].name;
+    g.cell_to_point(g.cell_arrays[0].name, name);
+    require(g.point_array(name) && g.point_array(name)->values.size() == nv, "cell_to_point size");
+  }
+}
+
+}  // namespace cellray::fuzz

@@ -1,0 +1,146 @@
+#!/usr/bin/env python3
+"""Writes the fuzz seed files next to this script (seeds/vtk, seeds/vtu,
+seeds/validate): one small mixed mesh (a tetrahedron, a hexahedron and a
+wedge) in every dialect the readers support, so the fuzzer starts inside each
+decoding path (legacy ASCII/BINARY old and 5.1 layouts; VTU ascii, inline
+base64, appended raw/base64, zlib, 32/64-bit headers, both byte orders), and
+a few decoded meshes for the validate harness. The outputs are committed;
+run again after editing.
+"""
+import base64
+import os
+import struct
+import zlib
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+XYZ = [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1,
+       2, 0, 0, 3, 0, 0, 3, 1, 0, 2, 1, 0, 2, 0, 1, 3, 0, 1, 3, 1, 1, 2, 1, 1]
+CELLS = [(10, [0, 1, 2, 3]), (12, [4, 5, 6, 7, 8, 9, 10, 11]), (13, [0, 1, 2, 4, 5, 7])]
+TEMP = [0.1 * i for i in range(12)]
+PRESSURE = [1.5, -2.0, 3.25]
+
+
+def put(sub, name, data):
+    if isinstance(data, str):
+        data = data.encode()
+    with open(os.path.join(HERE, "seeds", sub, name), "wb") as f:
+        f.write(data)
+
+
+# --- legacy VTK ---------------------------------------------------------------
+def legacy(version, binary, new_layout):
+    def block(fmt, values):
+        if binary:
+            return struct.pack(">%d%s" % (len(values), fmt), *values) + b"\n"
+        return (" ".join(str(v) for v in values) + "\n").encode()
+
+    o = ("# vtk DataFile Version %s\nseed\n%s\nDATASET UNSTRUCTURED_GRID\n" %
+         (version, "BINARY" if binary else "ASCII")).encode()
+    o += b"POINTS 12 float\n" + block("f", XYZ)
+    if new_layout:
+        offsets, conn = [0], []
+        for _, ids in CELLS:
+            conn += ids
+            offsets.append(len(conn))
+        o += b"CELLS %d %d\nOFFSETS vtktypeint64\n" % (len(offsets), len(conn)) + block("q", offsets)
+        o += b"CONNECTIVITY vtktypeint64\n" + block("q", conn)
+    else:
+        flat = []
+        for _, ids in CELLS:
+            flat += [len(ids)] + ids
+        o += b"CELLS %d %d\n" % (len(CELLS), len(flat)) + block("i", flat)
+    o += b"CELL_TYPES %d\n" % len(CELLS) + block("i", [t for t, _ in CELLS])
+    o += b"POINT_DATA 12\nSCALARS temperature float 1\nLOOKUP_TABLE default\n" + block("f", TEMP)
+    o += b"FIELD FieldData 1\nvelocity 3 12 double\n" + block("d", [0.5] * 36)
+    o += b"CELL_DATA 3\nSCALARS pressure double\nLOOKUP_TABLE default\n" + block("d", PRESSURE)
+    return o
+
+
+for version in ["2.0", "3.0", "4.2", "5.1"]:
+    for binary in [False, True]:
+        name = "v%s_%s.vtk" % (version.replace(".", ""), "binary" if binary else "ascii")
+        put("vtk", name, legacy(version, binary, version == "5.1"))
+
+
+# --- VTU ----------------------------------------------------------------------
+def vtu(fmt, appended_b64=False, u64=False, compress=False, big=False):
+    end = ">" if big else "<"
+    appended = bytearray()
+
+    def header(values):
+        return struct.pack(end + ("%dQ" if u64 else "%dI") % len(values), *values)
+
+    def pack(raw):
+        if not compress:
+            return header([len(raw)]), raw
+        block = 40
+        chunks = [zlib.compress(raw[i:i + block], 6) for i in range(0, len(raw), block)] or [zlib.compress(b"")]
+        last = len(raw) % block
+        return header([len(chunks), block, last] + [len(c) for c in chunks]), b"".join(chunks)
+
+    def array(vtype, code, name, ncomp, values):
+        o = '<DataArray type="%s" Name="%s" NumberOfComponents="%d" format="%s"' % (vtype, name, ncomp, fmt)
+        if fmt == "ascii":
+            return o + ">\n" + " ".join(str(v) for v in values) + "\n</DataArray>\n"
+        head, data = pack(struct.pack(end + "%d%s" % (len(values), code), *values))
+        enc = base64.b64encode(head) + base64.b64encode(data)
+        if fmt == "binary":
+            return o + ">\n  " + enc.decode() + "\n</DataArray>\n"
+        o += ' offset="%d"/>\n' % len(appended)
+        appended.extend(enc if appended_b64 else head + data)
+        return o
+
+    conn, offsets = [], []
+    for _, ids in CELLS:
+        conn += ids
+        offsets.append(len(conn))
+    body = '<Piece NumberOfPoints="12" NumberOfCells="%d">\n<PointData Scalars="temperature">\n' % len(CELLS)
+    body += array("Float32", "f", "temperature", 1, TEMP)
+    body += array("Float64", "d", "velocity", 3, [0.25] * 36)
+    body += "</PointData>\n<CellData>\n" + array("Float64", "d", "pressure", 1, PRESSURE)
+    body += "</CellData>\n<Points>\n" + array("Float32", "f", "Points", 3, XYZ) + "</Points>\n<Cells>\n"
+    body += array("Int64", "q", "connectivity", 1, conn) + array("Int64", "q", "offsets", 1, offsets)
+    body += array("UInt8", "B", "types", 1, [t for t, _ in CELLS]) + "</Cells>\n</Piece>\n"
+    head = ('<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="1.0" byte_order="%s" header_type="%s"%s>\n'
+            '<UnstructuredGrid>\n' % ("BigEndian" if big else "LittleEndian", "UInt64" if u64 else "UInt32",
+                                      ' compressor="vtkZLibDataCompressor"' if compress else ""))
+    o = head.encode() + body.encode() + b"</UnstructuredGrid>\n"
+    if fmt == "appended":
+        o += b'<AppendedData encoding="%s">\n   _' % (b"base64" if appended_b64 else b"raw") + bytes(appended)
+        o += b"\n</AppendedData>\n"
+    return o + b"</VTKFile>\n"
+
+
+put("vtu", "ascii.vtu", vtu("ascii"))
+for compress in [False, True]:
+    z = "_zlib" if compress else ""
+    put("vtu", "binary%s.vtu" % z, vtu("binary", compress=compress))
+    put("vtu", "binary_u64_big%s.vtu" % z, vtu("binary", u64=True, compress=compress, big=True))
+    put("vtu", "appended_raw%s.vtu" % z, vtu("appended", compress=compress))
+    put("vtu", "appended_raw_u64%s.vtu" % z, vtu("appended", u64=True, compress=compress))
+    put("vtu", "appended_base64%s.vtu" % z, vtu("appended", appended_b64=True, compress=compress))
+
+
+# --- validate harness (see fuzz_validate.cpp for the byte layout) --------------
+def mesh_seed(flags, nv, nc, iso, tuning, coords, ids, values):
+    return bytes([flags, nv - 1, nc, iso, tuning] + coords + ids + values)
+
+
+# A cube lattice point (i, j, k) in the harness's coordinate palette.
+def lattice(i, j, k):
+    return [i, j, k]
+
+
+cube = [lattice(i, j, k) for k in (2, 5) for j in (2, 5) for i in (2, 5)]
+cube_xyz = [c for p in cube for c in p]
+tets = [0, 1, 3, 7, 0, 3, 2, 7, 0, 2, 6, 7, 0, 6, 4, 7, 0, 4, 5, 7, 0, 5, 1, 7]
+hexes = [0, 1, 3, 2, 4, 5, 7, 6]
+vals = [20, 60, 100, 140, 180, 220, 40, 120]
+for frame in range(4):
+    put("validate", "tets_frame%d" % frame, mesh_seed(frame << 4, 8, 6, 120, 0x21, cube_xyz, tets, vals))
+    put("validate", "hex_frame%d" % frame, mesh_seed(1 | frame << 4, 8, 1, 120, 0x0a, cube_xyz, hexes, vals))
+put("validate", "tets_wide_shadows", mesh_seed(0x42 | 0x80, 8, 6, 100, 0x43, cube_xyz, tets, vals))
+put("validate", "tets_nan_value", mesh_seed(0, 8, 6, 120, 0, cube_xyz, tets, [240] + vals[1:]))
+put("validate", "tets_bad_index", mesh_seed(0, 8, 6, 120, 0, cube_xyz, [250] + tets[1:], vals))
+put("validate", "tets_inf_position", mesh_seed(0, 8, 6, 120, 0, [225] + cube_xyz[1:], tets, vals))
