@@ -33,6 +33,7 @@
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/validate.hpp>
 #include <cellray/render/camera.hpp>
+#include <cellray/render/reference.hpp>
 #include <cellray/render/render.hpp>
 #include <cellray/render/transfer_function.hpp>
 
@@ -158,8 +159,8 @@ void rescale(std::vector<float>& x, float lo, float hi) {
 /// objects; the first is used) or one such object. "RGBPoints" is
 /// [x, r, g, b, ...]; the optional "Points" is [x, alpha, midpoint,
 /// sharpness, ...] (midpoint and sharpness are ignored: linear ramps). Without
-/// "Points" the opacity is the built-in presets' ramp up to `max_alpha`; with
-/// them, `alpha_scale` multiplies their opacities.
+/// "Points" the opacity rises linearly from 0 to `max_alpha` over the range;
+/// with them, `alpha_scale` multiplies their opacities.
 TransferFunction read_paraview_tf(std::string const& path, float vmin, float vmax, float max_alpha, float alpha_scale,
                                   bool keep_file_range) {
   std::ifstream in(path);
@@ -210,9 +211,8 @@ TransferFunction read_paraview_tf(std::string const& path, float vmin, float vma
       av.push_back(float(alpha_points[i + 1]) * alpha_scale);
     }
   } else {
-    // The built-in presets' ramp: transparent over the lower two thirds.
-    ax = {0.f, 2.f / 3.f, 1.f};
-    av = {0.f, 0.f, max_alpha};
+    ax = {0.f, 1.f};  // ParaView's default opacity: a linear ramp
+    av = {0.f, max_alpha};
   }
   if (!keep_file_range || !has_alpha) {
     if (!keep_file_range) rescale(cx, vmin, vmax);
@@ -318,7 +318,6 @@ struct Options {
   int group_size = 16;
   std::string dvr_mode = "samples";
   bool no_skip = false;
-  bool dvr_shading = false;
   int neubauer = 0;
   bool central_normals = false;
   bool skip_unsupported = false;
@@ -381,7 +380,6 @@ void add_options(CLI::App& app, Options& o) {
       ->check(CLI::Range(1, 32))
       ->capture_default_str();
   app.add_flag("--no-skip", o.no_skip, "Disable DVR empty-space skipping");
-  app.add_flag("--dvr-shading", o.dvr_shading, "Lambert shading by the field gradient in DVR");
   app.add_option("--background", o.background, "R,G,B[,A] in [0,1], or white, black, transparent (default white)");
   app.add_option("--eye", o.eye, "Camera position X,Y,Z (default: framing the mesh bounds)");
   app.add_option("--at", o.at, "Look-at point X,Y,Z (default: the bounds' centre)");
@@ -403,7 +401,7 @@ void add_options(CLI::App& app, Options& o) {
       ->check(CLI::IsMember({"binned_sah", "spatial_median", "morton", "sah", "median"}))
       ->capture_default_str();
   app.add_option("--leaf-size", o.leaf_size, "Largest BVH leaf, cells")->capture_default_str();
-  app.add_flag("--reference", o.reference, "Render with the double-precision reference path (for comparisons)");
+  app.add_flag("--reference", o.reference, "Render with the double-precision reference renderer (slow; the oracle for comparisons)");
   app.add_flag("--stats", o.stats, "Print one JSON object with sizes and timings on stdout");
   app.add_flag("--progress", o.progress, "Progress lines on stderr even when it is not a terminal");
   app.add_flag("-v,--verbose", o.verbose, "Print what was read, the validation report and BVH statistics");
@@ -592,10 +590,6 @@ int run(Options const& o) {
   if (!o.eye.empty()) eye = parse_vec3(o.eye, "--eye");
   if (!o.at.empty()) at = parse_vec3(o.at, "--at");
   if (!o.up.empty()) up = parse_vec3(o.up, "--up");
-  if (o.reference)
-    // TODO(lead): wire the double-precision reference renderer here once
-    // the accuracy work declares it.
-    throw Error("--reference: the double-precision reference renderer is not available yet");
 
   std::optional<tbb::global_control> thread_limit;
   if (o.threads > 0) thread_limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
@@ -683,9 +677,12 @@ int run(Options const& o) {
   // Camera: fit the bounds, then apply what was given.
   glm::vec3 lo, hi;
   scene.bounds(lo, hi);
-  Camera cam = fit_camera(lo, hi, width, height, o.fov);
+  // The default scene's blobs sit well inside its cube: frame the middle.
+  float const frame = o.mesh_path.empty() ? 0.75f : 1.f;
+  glm::vec3 const centre = 0.5f * (lo + hi);
+  Camera cam = fit_camera(centre + frame * (lo - centre), centre + frame * (hi - centre), width, height, o.fov);
   if (eye || at || up)
-    cam = Camera::look_at(eye.value_or(cam.eye), at.value_or(0.5f * (lo + hi)), up.value_or(glm::vec3(0.f, 1.f, 0.f)),
+    cam = Camera::look_at(eye.value_or(cam.eye), at.value_or(centre), up.value_or(glm::vec3(0.f, 1.f, 0.f)),
                           o.fov, width, height);
   float const diagonal = glm::length(hi - lo);
 
@@ -696,7 +693,9 @@ int run(Options const& o) {
   IsoParams ip;
   DvrParams dp;
   if (o.mode == "iso") {
-    if (isovalues.empty())
+    if (isovalues.empty() && o.mesh_path.empty())
+      isovalues = {0.3f, 0.45f, 0.6f};  // nested, none cut by the cube (analytic_field)
+    else if (isovalues.empty())
       for (float t : {0.25f, 0.5f, 0.75f}) isovalues.push_back(vlo + t * (vhi - vlo));
     if (!iso_opacity.empty() && iso_opacity.size() != 1 && iso_opacity.size() != isovalues.size())
       throw UsageError("--iso-opacity: give one opacity or one per isovalue (" + std::to_string(isovalues.size()) + ")");
@@ -727,6 +726,12 @@ int run(Options const& o) {
       } catch (InvalidArgument const& e) {
         throw UsageError(std::string("--tf: ") + e.what() + " and no file '" + o.tf + "'");
       }
+      // The presets hide the lower two thirds of the range, which leaves
+      // little of most real fields; ParaView's default linear ramp shows the
+      // structure. Exact: the knots include both ends, alpha is linear between.
+      float const span = vhi > vlo ? vhi - vlo : 1.f;
+      for (size_t i = 0; i < dp.tf.values.size(); ++i)
+        dp.tf.rgba[i].a = max_alpha * std::clamp((dp.tf.values[i] - vlo) / span, 0.f, 1.f);
     }
     // Opacity accumulates per unit distance: a tenth of the diagonal keeps a
     // mesh's look independent of its units.
@@ -735,8 +740,8 @@ int run(Options const& o) {
     dp.group_size = o.group_size;
     dp.mode = o.dvr_mode == "segments" ? DvrMode::segments : DvrMode::samples;
     dp.empty_space_skipping = !o.no_skip;
-    dp.gradient_shading = o.dvr_shading;
-    if (background) dp.background = *background;
+    // Volumes read best on a dark background (ParaView's choice too).
+    dp.background = background.value_or(glm::vec4(0.08f, 0.08f, 0.1f, 1.f));
   }
 
   // Render.
@@ -747,7 +752,10 @@ int run(Options const& o) {
                            (o.frames > 1 ? " " + std::to_string(o.frames) + " times" : std::string()));
     for (int f = 0; f < o.frames; ++f) {
       auto const t0 = Clock::now();
-      image = o.mode == "iso" ? render_iso(scene, cam, ip, ro) : render_dvr(scene, cam, dp, ro);
+      if (o.reference)
+        image = o.mode == "iso" ? render_iso_reference(scene, cam, ip) : render_dvr_reference(scene, cam, dp);
+      else
+        image = o.mode == "iso" ? render_iso(scene, cam, ip, ro) : render_dvr(scene, cam, dp, ro);
       times.push_back(ms_since(t0));
     }
   }
@@ -767,6 +775,7 @@ int run(Options const& o) {
     j["cells"] = l.cells();
     j["vertices"] = l.vertices();
     j["cell_type"] = l.cell_type();
+    j["renderer"] = o.reference ? "reference" : "fast";
     j["isa"] = isa_name(isa);
     j["traversal"] = traversal_name(traversal);
     j["threads"] = threads;
