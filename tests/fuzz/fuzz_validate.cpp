@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <vector>
@@ -81,7 +82,11 @@ uint64_t vertex_id(Bytes& in, uint64_t nv) {
 
 void check_image(cellray::Image const& img, int w, int h) {
   require(img.width == w && img.height == h && img.rgba.size() == size_t(w) * size_t(h) * 4, "image size");
-  for (float c : img.rgba) require(std::isfinite(c) && c >= 0.f && c <= 1.f, "pixel not finite or outside [0, 1]");
+  for (size_t i = 0; i < img.rgba.size(); ++i)
+    if (!(std::isfinite(img.rgba[i]) && img.rgba[i] >= 0.f && img.rgba[i] <= 1.f)) {
+      std::fprintf(stderr, "pixel %zu channel %zu = %.9g\n", i / 4, i % 4, double(img.rgba[i]));
+      cellray::fuzz::fail("pixel not finite or outside [0, 1]");
+    }
 }
 
 template <int N, class Index>

@@ -9,6 +9,7 @@
 #include <memory>
 #include <vector>
 
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
 #include "../traverse/cell_ops.hpp"
@@ -203,8 +204,13 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           float const ndl = std::max(0.f, glm::dot(nrm[l], ldir[l]));
           glm::vec3 const hv = glm::normalize(ldir[l] + v);
           float const spec = ndl > 0.f ? std::pow(std::max(0.f, glm::dot(nrm[l], hv)), p.shininess) : 0.f;
-          glm::vec3 const shade = base[l] * (p.ambient * (1.f - occlusion[l]) + p.diffuse * ndl * visibility[l]) +
-                                  glm::vec3(p.specular * spec * visibility[l]);
+          // Ambient + diffuse + specular can sum past 1 (defaults: 0.2 + 0.7 +
+          // 0.25); the image holds [0, 1] (image.hpp), so clamp here, before
+          // compositing, not only when writing 8 bits.
+          glm::vec3 const shade = glm::min(
+              base[l] * (p.ambient * (1.f - occlusion[l]) + p.diffuse * ndl * visibility[l]) +
+                  glm::vec3(p.specular * spec * visibility[l]),
+              glm::vec3(1.f));
           float const a = opacity[l] * (1.f - alpha[l]);
           color[l] += a * shade;
           alpha[l] += a;
