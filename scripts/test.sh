@@ -16,3 +16,8 @@ cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCELLRAY_SANITIZE=ON
 cmake --build build-asan -j"$jobs"
 (cd build-asan && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   ctest --output-on-failure -j"$jobs" -LE no-sanitizer)
+
+# Reliability (docs/reliability.md): each libFuzzer harness for 40 s (clang,
+# ASan + UBSan), then the concurrency tests under ThreadSanitizer.
+./scripts/fuzz.sh 40 build-fuzz
+./scripts/tsan.sh build-tsan
