@@ -358,7 +358,7 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--neubauer", o.neubauer, "Isosurface roots by N Neubauer steps instead of exactly")
       ->check(CLI::Range(1, 64));
   app.add_flag("--central-normals", o.central_normals, "Normals by central differences (the paper's) instead of analytic");
-  app.add_flag("--shadows", o.shadows, "Hard shadows from a light at the eye (iso)");
+  app.add_flag("--shadows", o.shadows, "Hard shadows from a light above the camera's left shoulder (iso)");
   app.add_option("--ao", o.ao, "Ambient-occlusion rays per hit (iso)")->check(CLI::Range(0, 1024));
   app.add_option("--tf", o.tf,
                  "DVR transfer function: cool-warm, viridis, inferno, grayscale, or a ParaView colour map JSON file")
@@ -714,6 +714,9 @@ int run(Options const& o) {
     }
     if (o.central_normals) ip.normals = GradientMethod::central;
     ip.shadows = o.shadows;
+    // A light at the eye casts no visible shadow: with --shadows the light
+    // comes from above the camera's left shoulder (shading and shadows).
+    if (o.shadows) ip.light_dir = glm::normalize(0.8f * cam.up - 0.5f * cam.right - 0.4f * cam.forward);
     ip.ao_samples = o.ao;
     if (background) ip.background = *background;
   } else {
