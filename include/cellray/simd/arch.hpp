@@ -13,6 +13,8 @@
 
 #include <xsimd/xsimd.hpp>
 
+#include "../error.hpp"
+
 // Code compiled with different ISA flags must not share out-of-line symbols:
 // the linker keeps one copy of each weak (inline or template) function and
 // may keep the AVX-512 one for a baseline caller (TOOLCHAIN.md, ODR trap).
@@ -56,12 +58,12 @@ constexpr char const* isa_name(Isa isa) noexcept {
 }
 
 /// Parses "sse4" (or "sse4_2", "sse4.2"), "avx2", "avx512".
-/// @throws std::invalid_argument naming the text and the accepted values.
+/// @throws InvalidArgument naming the text and the accepted values.
 inline Isa parse_isa(std::string_view text) {
   if (text == "sse4" || text == "sse4_2" || text == "sse4.2") return Isa::sse4_2;
   if (text == "avx2") return Isa::avx2;
   if (text == "avx512") return Isa::avx512;
-  throw std::invalid_argument("unknown ISA '" + std::string(text) +
+  throw InvalidArgument("unknown ISA '" + std::string(text) +
                               "' (expected sse4, avx2 or avx512)");
 }
 
@@ -78,23 +80,23 @@ inline bool cpu_supports(Isa isa) noexcept {
   return false;
 }
 
-/// The widest ISA this CPU supports. @throws std::runtime_error below SSE4.2.
+/// The widest ISA this CPU supports. @throws Error below SSE4.2.
 inline Isa best_isa() {
   if (cpu_supports(Isa::avx512)) return Isa::avx512;
   if (cpu_supports(Isa::avx2)) return Isa::avx2;
   if (cpu_supports(Isa::sse4_2)) return Isa::sse4_2;
-  throw std::runtime_error("cellray needs at least SSE4.2; this CPU lacks it");
+  throw Error("cellray needs at least SSE4.2; this CPU lacks it");
 }
 
 /// The ISA used when a call does not name one: `CELLRAY_ISA` from the
 /// environment if set (it must be supported here), else `best_isa()`.
-/// @throws std::invalid_argument for an unknown or unsupported `CELLRAY_ISA`.
+/// @throws InvalidArgument for an unknown or unsupported `CELLRAY_ISA`.
 inline Isa default_isa() {
   char const* env = std::getenv("CELLRAY_ISA");
   if (env == nullptr || *env == '\0' || std::string_view(env) == "auto") return best_isa();
   Isa isa = parse_isa(env);
   if (!cpu_supports(isa))
-    throw std::invalid_argument(std::string("CELLRAY_ISA=") + env + ": this CPU does not support it");
+    throw InvalidArgument(std::string("CELLRAY_ISA=") + env + ": this CPU does not support it");
   return isa;
 }
 
