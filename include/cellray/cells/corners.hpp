@@ -119,8 +119,21 @@ inline CellCorners<A, N> gather_corners(CellMesh<N> const& mesh, vint<A> const& 
   constexpr uint64_t lim = uint64_t(std::numeric_limits<int32_t>::max());
   if (mesh.has_32bit_indices() && mesh.cell_count() * N < lim && mesh.vertex_count() * 3 < lim) {
     auto const* idx = reinterpret_cast<int32_t const*>(mesh.indices32());
+    vint<A> vs[N];
+    for (int i = 0; i < N; ++i) vs[i] = simd::gather(idx, cell * vint<A>(N) + vint<A>(i));
+    if constexpr (N == 4) {
+      // sort_tet_corners' network on the ids alone (here id = vertex index),
+      // before the loads: the same order, without permuting 5 x 4 vectors.
+      auto cmpx = [&vs](int i, int j) {
+        vmaski<A> const m = vs[i] > vs[j];
+        vint<A> const lo = simd::select(m, vs[j], vs[i]);
+        vs[j] = simd::select(m, vs[i], vs[j]);
+        vs[i] = lo;
+      };
+      cmpx(0, 1), cmpx(2, 3), cmpx(0, 2), cmpx(1, 3), cmpx(1, 2);
+    }
     for (int i = 0; i < N; ++i) {
-      vint<A> const v = simd::gather(idx, cell * vint<A>(N) + vint<A>(i));
+      vint<A> const v = vs[i];
       vint<A> const v3 = v * vint<A>(3);
       c.x[i] = simd::gather(xyz, v3);
       c.y[i] = simd::gather(xyz + 1, v3);
@@ -128,6 +141,7 @@ inline CellCorners<A, N> gather_corners(CellMesh<N> const& mesh, vint<A> const& 
       c.s[i] = val ? simd::gather(val, v) : vfloat<A>(std::numeric_limits<float>::quiet_NaN());
       c.id[i] = v;
     }
+    return c;
   } else {
     alignas(64) int32_t cid[width<A>];
     simd::store(cid, cell);

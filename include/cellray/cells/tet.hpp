@@ -148,6 +148,62 @@ template <class A> inline CellClip<A> clip_tet(RayBatch<A> const& ray, CellCorne
   return r;
 }
 
+/// clip_tet for the lanes in `lanes` whose interval meets [t_lo, t_hi]
+/// (per lane): `hit` is clip_tet's hit && lanes && t_out >= t_lo && t_in <=
+/// t_hi, and in those lanes t_in, t_out, s_in, s_out are bit-identical to
+/// clip_tet's (same expressions in the same order, so the watertight face
+/// model holds across both). Why it exists: most cells a packet reaches in a
+/// BVH leaf are missed by every lane, and the face-value interpolation is
+/// half of clip_tet's work; it is done only when some lane survives the
+/// plane tests.
+template <class A>
+inline CellClip<A> clip_tet_window(RayBatch<A> const& ray, CellCorners<A, 4> const& c, vmask<A> const& lanes,
+                                   vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  vfloat<A> const zero(0.f);
+  Vec3<A> const o = ray.origin(), d = ray.dir();
+  CellClip<A> r;
+  r.t_in = vfloat<A>(-inf), r.t_out = vfloat<A>(inf);
+  vmask<A> ok = lanes;
+  vfloat<A> t[4];
+  vmask<A> new_in[4], new_out[4];
+  for (int f = 0; f < 4; ++f) {
+    detail::TetFace<A> const F = detail::tet_face(c, f);
+    // num and den taken with the normal pointing into the cell (times +-1:
+    // exact, so t = num / den keeps clip_tet's bits): entering is den > 0,
+    // leaving den < 0, and "origin inside the plane" num <= 0, which spares
+    // clip_tet's side-dependent masks (and the slow mask negations).
+    vmask<A> const pos = F.side > zero;
+    ok = ok && (pos || F.side < zero);
+    vfloat<A> const sgn = simd::select(pos, vfloat<A>(1.f), vfloat<A>(-1.f));
+    vfloat<A> const num = dot(F.n, F.a - o) * sgn;
+    vfloat<A> const den = dot(F.n, d) * sgn;
+    t[f] = num / den;
+    vmask<A> const enter = den > zero, leave = den < zero;
+    // Parallel to the plane (den == 0 exactly) and outside it: no interval.
+    ok = ok && simd::select(den == zero, num, zero) <= zero;
+    new_in[f] = enter && t[f] > r.t_in;
+    new_out[f] = leave && t[f] < r.t_out;
+    r.t_in = simd::select(new_in[f], t[f], r.t_in);
+    r.t_out = simd::select(new_out[f], t[f], r.t_out);
+  }
+  r.hit = ok && r.t_in < r.t_out && r.t_out >= t_lo && r.t_in <= t_hi;
+  r.s_in = zero, r.s_out = zero;
+  if (simd::none(r.hit)) return r;
+  for (int f = 0; f < 4; ++f) {
+    detail::TetFace<A> const F = detail::tet_face(c, f);
+    Vec3<A> const rel = (o + t[f] * d) - F.a;
+    vfloat<A> const nn = dot(F.n, F.n);
+    vfloat<A> const beta = dot(cross(rel, F.e2), F.n) / nn;
+    vfloat<A> const gamma = dot(cross(F.e1, rel), F.n) / nn;
+    vfloat<A> const sa = c.s[detail::tet_faces[f][0]];
+    vfloat<A> const s = sa + beta * (c.s[detail::tet_faces[f][1]] - sa) + gamma * (c.s[detail::tet_faces[f][2]] - sa);
+    r.s_in = simd::select(new_in[f], s, r.s_in);
+    r.s_out = simd::select(new_out[f], s, r.s_out);
+  }
+  return r;
+}
+
 /// The tet's linear interpolant at `p`, extrapolated outside the cell.
 /// Returns value; `inside` gets the containment mask (see locate_tet).
 template <class A>

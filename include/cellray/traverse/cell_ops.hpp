@@ -20,6 +20,10 @@ template <class A, int N> struct CellOps;
 template <class A> struct CellOps<A, 4> {
   using Clip = CellClip<A>;
   static Clip clip(RayBatch<A> const& r, CellCorners<A, 4> const& c) { return clip_tet(r, c); }
+  static Clip clip_window(RayBatch<A> const& r, CellCorners<A, 4> const& c, vmask<A> const& lanes,
+                          vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
+    return clip_tet_window(r, c, lanes, t_lo, t_hi);
+  }
   static CellIsoHit<A> iso(RayBatch<A> const& r, Clip const& k, CellCorners<A, 4> const& c, float const* isos,
                            int count, CellIsoOptions const& o) {
     return o.method == CellIsoMethod::exact ? iso_root_tet(k, c, isos, count)
@@ -34,6 +38,12 @@ template <class A> struct CellOps<A, 4> {
 template <class A> struct CellOps<A, 8> {
   using Clip = HexClip<A>;
   static Clip clip(RayBatch<A> const& r, CellCorners<A, 8> const& c) { return clip_hex(r, c); }
+  static Clip clip_window(RayBatch<A> const& r, CellCorners<A, 8> const& c, vmask<A> const& lanes,
+                          vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
+    Clip k = clip_hex(r, c);
+    k.hit = k.hit && lanes && k.t_out >= t_lo && k.t_in <= t_hi;
+    return k;
+  }
   static CellIsoHit<A> iso(RayBatch<A> const& r, Clip const& k, CellCorners<A, 8> const& c, float const* isos,
                            int count, CellIsoOptions const& o) {
     return o.method == CellIsoMethod::exact ? iso_root_hex(r, k, c, isos, count, o.refine_steps)
@@ -57,8 +67,7 @@ inline CellIsoHit<A> iso_in_window(RayBatch<A> const& r, CellCorners<A, N> const
                                    CellIsoOptions const& o) {
   using Ops = CellOps<A, N>;
   constexpr float inf = std::numeric_limits<float>::infinity();
-  typename Ops::Clip k = Ops::clip(r, c);
-  k.hit = k.hit && lanes && k.t_out >= t_lo && k.t_in <= t_hi;
+  typename Ops::Clip const k = Ops::clip_window(r, c, lanes, t_lo, t_hi);
   CellIsoHit<A> best{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
   if (simd::none(k.hit)) return best;
   if (simd::all(!k.hit || (k.t_in >= t_lo && k.t_out <= t_hi))) return Ops::iso(r, k, c, isos, count, o);

@@ -80,26 +80,22 @@ template <class A, class Query>
 void traverse_spmd(TreeView const& tree, RayPacket<A> const& r, vmask<A> active, Query& q, uint32_t root) {
   constexpr int W = width<A>;
   if (tree.empty() || simd::none(active)) return;
-  uint32_t stack[W][traversal_stack_size];
-  int sp[W];
-  uint32_t const lanes = simd::movemask(active);
-  for (int l = 0; l < W; ++l) {
-    sp[l] = int((lanes >> l) & 1u);
-    stack[l][0] = root;
-  }
+  // Lane-interleaved stacks (entry k of lane l at stack[k][l]): the pops of
+  // all lanes are one gather, and the stack depths one vector.
+  alignas(64) int32_t stack[traversal_stack_size][W];
+  for (int l = 0; l < W; ++l) stack[0][l] = int32_t(root);
+  int32_t const* stack0 = &stack[0][0];
+  vint<A> sp = simd::select(simd::to_int_mask(active), vint<A>(1), vint<A>(0));
+  vint<A> const lane = simd::lane_index<A>();
   float const* nf = reinterpret_cast<float const*>(tree.nodes);
   int32_t const* ni32 = reinterpret_cast<int32_t const*>(tree.nodes);
-  alignas(64) float dir[3][W];
-  simd::store(dir[0], r.dx), simd::store(dir[1], r.dy), simd::store(dir[2], r.dz);
+  vfloat<A> const dir[3] = {r.dx, r.dy, r.dz};
   while (true) {
-    alignas(64) int32_t cur[W];
-    uint32_t has = 0;
-    for (int l = 0; l < W; ++l) {
-      cur[l] = 0;
-      if (sp[l] > 0) cur[l] = int32_t(stack[l][--sp[l]]), has |= 1u << l;
-    }
-    if (!has) break;
-    vint<A> const node = simd::load<A>(cur);
+    vmaski<A> const has_i = sp > vint<A>(0);
+    vmask<A> const has = simd::to_float_mask(has_i);
+    if (simd::none(has)) break;
+    sp = simd::select(has_i, sp - vint<A>(1), sp);
+    vint<A> const node = simd::gather(stack0, simd::select(has_i, sp * vint<A>(W) + lane, vint<A>(0)));
     vint<A> const off = node * vint<A>(8);  // 8 words per node
     vfloat<A> const lo[3] = {simd::gather(nf, off), simd::gather(nf + 1, off), simd::gather(nf + 2, off)};
     vfloat<A> const hi[3] = {simd::gather(nf + 4, off), simd::gather(nf + 5, off), simd::gather(nf + 6, off)};
@@ -107,30 +103,36 @@ void traverse_spmd(TreeView const& tree, RayPacket<A> const& r, vmask<A> active,
     vint<A> const raw_count = simd::gather(ni32 + 7, off);  // all bits set: inner node
     vint<A> const r2 = node * vint<A>(2);
     vfloat<A> tn;
-    vmask<A> const m = simd::mask_from_bits<A>(has) &&
+    vmask<A> const m = has &&
                        q.relevant(simd::gather(tree.ranges, r2), simd::gather(tree.ranges + 1, r2)) &&
                        box_hit_varying(r, lo, hi, q.t_lo(), q.t_hi(), tn);
     vmask<A> const is_inner = simd::to_float_mask(raw_count == vint<A>(-1));
-    uint32_t ib = simd::movemask(m && is_inner);
-    if (ib) {
-      alignas(64) int32_t fst[W];
-      simd::store(fst, first);
-      for (; ib; ib &= ib - 1) {
-        int const l = __builtin_ctz(ib);
-        uint32_t const c0 = uint32_t(fst[l]);
-        Node const& a = tree.nodes[c0];
-        Node const& b = tree.nodes[c0 + 1];
-        // Near child by the lane's direction along the axis that separates
-        // the children's centres most (no second box test per lane).
-        float best = -1.f, along = 0.f;
-        for (int k = 0; k < 3; ++k) {
-          float const sep = (b.lo[k] + b.hi[k]) - (a.lo[k] + a.hi[k]);
-          if (std::fabs(sep) > best) best = std::fabs(sep), along = sep * dir[k][l];
-        }
-        bool const a_first = along >= 0.f;
-        stack[l][sp[l]++] = a_first ? c0 + 1 : c0;
-        stack[l][sp[l]++] = a_first ? c0 : c0 + 1;
+    vmask<A> const descend = m && is_inner;
+    if (simd::any(descend)) {
+      vmaski<A> const descend_i = simd::to_int_mask(descend);
+      vint<A> const c0 = first;
+      vint<A> const offa = simd::select(descend_i, c0 * vint<A>(8), vint<A>(0)), offb = offa + vint<A>(8);
+      // Near child by the lane's direction along the axis that separates
+      // the children's centres most (no second box test per lane).
+      vfloat<A> best(-1.f), along(0.f);
+      for (int k = 0; k < 3; ++k) {
+        vfloat<A> const sep = (simd::gather(nf + k, offb) + simd::gather(nf + 4 + k, offb)) -
+                              (simd::gather(nf + k, offa) + simd::gather(nf + 4 + k, offa));
+        vmask<A> const wider = simd::abs(sep) > best;
+        best = simd::select(wider, simd::abs(sep), best);
+        along = simd::select(wider, sep * dir[k], along);
       }
+      vmaski<A> const a_first = simd::to_int_mask(along >= vfloat<A>(0.f));
+      alignas(64) int32_t nearc[W], farc[W], depth[W];
+      simd::store(nearc, simd::select(a_first, c0, c0 + vint<A>(1)));
+      simd::store(farc, simd::select(a_first, c0 + vint<A>(1), c0));
+      simd::store(depth, sp);
+      for (uint32_t ib = simd::movemask(descend); ib; ib &= ib - 1) {
+        int const l = __builtin_ctz(ib);
+        stack[depth[l]][l] = farc[l];
+        stack[depth[l] + 1][l] = nearc[l];
+      }
+      sp = simd::select(descend_i, sp + vint<A>(2), sp);
     }
     vmask<A> const leaf = m && !is_inner;
     if (simd::none(leaf)) continue;
