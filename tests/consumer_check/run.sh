@@ -16,7 +16,7 @@ grep -q "^cellray_DIR:PATH=$work/prefix/" "$work/build/CMakeCache.txt" ||
 cmake --build "$work/build" -j2
 img="$work/consumer.ppm"
 "$work/build/consumer" "$img"
-header=$(head -c 15 "$img" | tr '\n' ' ')
+header=$(head -c 13 "$img" | tr '\n' ' ')
 [ "$header" = "P6 64 48 255 " ] || { echo "FAIL: unexpected PPM header '$header'"; exit 1; }
 size=$(stat -c %s "$img")
 [ "$size" = $((15 + 64 * 48 * 3)) ] || { echo "FAIL: $img has $size bytes"; exit 1; }
