@@ -25,18 +25,6 @@ template <class A> struct HitPacket {
   vint<A> iso;
 };
 
-/// Uniform cell range test from the corner values (NaN: never).
-template <int N> inline bool cell_range_has_iso(CellMesh<N> const& mesh, uint64_t cell, IsoSet const& isos) {
-  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-  for (int k = 0; k < N; ++k) {
-    float const v = mesh.value(mesh.vertex(cell, k));
-    if (!(v == v)) return false;
-    lo = std::min(lo, v);
-    hi = std::max(hi, v);
-  }
-  return isos.overlaps(lo, hi);
-}
-
 /// broadcast_corners<A, N>(mesh, cell) into `c` when the cell's value range
 /// holds an isovalue (no NaN corner value), else false and `c` untouched.
 /// Reads each index and value once, and orders tet corners with a scalar
