@@ -14,6 +14,7 @@
 
 #include "../traverse/cell_ops.hpp"
 #include "../traverse/first_hit.hpp"
+#include "../traverse/queries_impl.hpp"
 #include "../traverse/sample.hpp"
 #include "../traverse/segments.hpp"
 #include "render.hpp"
@@ -83,20 +84,11 @@ inline SceneHit<A> nearest_hit(PreparedScene const& s, RayPacket<A> const& r, vm
   return best;
 }
 
-/// Unit shading normal at a hit (two-sided: faces the ray origin).
+/// Unit shading normal at a hit point `p` (two-sided: faces against `dir`).
 inline glm::vec3 normal_at(PreparedPart const& part, uint64_t slot, glm::vec3 p, glm::vec3 dir, GradientMethod m) {
   uint64_t const cell = part.tree.item(slot);
-  auto eval = [&](auto const& mesh) {
-    constexpr int N = std::decay_t<decltype(mesh)>::corners;
-    CellCorners<scalar, N> const c = broadcast_corners<scalar, N>(mesh, cell);
-    Vec3<scalar> const d{dir.x, dir.y, dir.z};
-    float const ex = c.x[1] - c.x[0], ey = c.y[1] - c.y[0], ez = c.z[1] - c.z[0];
-    float const h = 0.01f * std::sqrt(ex * ex + ey * ey + ez * ez);
-    Vec3<scalar> const g = CellOps<scalar, N>::gradient(c, Vec3<scalar>{p.x, p.y, p.z}, m, h);
-    Vec3<scalar> const n = face_forward<scalar>(shading_normal<scalar>(g, d), d);
-    return glm::vec3(n.x, n.y, n.z);
-  };
-  return part.tets ? eval(*part.tets) : eval(*part.hexes);
+  Ray const at_hit{p, 0.f, dir, 0.f};  // t = 0 is the hit point itself
+  return part.tets ? hit_normal(*part.tets, cell, at_hit, 0.f, m) : hit_normal(*part.hexes, cell, at_hit, 0.f, m);
 }
 
 /// Deterministic per-pixel hash in [0, 1): AO directions must not flicker

@@ -42,12 +42,6 @@ template <class A> inline RayPacket<A> load_rays(Ray const* rays, int n) {
   return p;
 }
 
-/// One lane of a packet as a width-1 packet (single-ray traversal).
-template <class A> inline RayPacket<scalar> extract_lane(RayPacket<A> const& p, int lane) {
-  auto g = [lane](vfloat<A> const& v) { return simd::to_array<A>(v)[size_t(lane)]; };
-  return {g(p.ox), g(p.oy), g(p.oz), g(p.dx), g(p.dy), g(p.dz), g(p.rx), g(p.ry), g(p.rz), g(p.tmin), g(p.tmax)};
-}
-
 /// Slab test of every lane against one box, clipped to [t0, t1]. Returns the
 /// lanes that overlap and their entry distance. The exit distance is widened
 /// by a few ulps so float rounding never culls a box a cell kernel would hit.
