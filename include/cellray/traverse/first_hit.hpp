@@ -117,14 +117,7 @@ template <class A, int N> struct FirstHitQuery {
   }
 
   void leaf_items(vint<A> const& slots, vmask<A> const& m) {
-    alignas(64) int32_t s[width<A>], cells[width<A>];
-    simd::store(s, slots);
-    for (int l = 0; l < width<A>; ++l) cells[l] = 0;
-    for (uint32_t b = simd::movemask(m); b; b &= b - 1) {
-      int const l = __builtin_ctz(b);
-      cells[l] = int32_t(uint32_t(tree.item(uint64_t(uint32_t(s[l])))));
-    }
-    CellCorners<A, N> const c = gather_corners<A, N>(mesh, simd::load<A>(cells), m);
+    CellCorners<A, N> const c = gather_corners<A, N>(mesh, slot_cells<A>(tree, slots, m), m);
     CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method);
     update(h.hit, h.t, h.iso_index, slots);
   }

@@ -14,22 +14,6 @@
 
 namespace cellray {
 
-/// Value intervals a sampling traversal may skip outside of: a subtree whose
-/// range [vmin, vmax] overlaps none of them holds nothing visible (e.g. the
-/// transfer function is transparent there: empty-space skipping).
-struct ValueWindows {
-  static constexpr int max_count = 16;
-  float lo[max_count] = {-std::numeric_limits<float>::infinity()};
-  float hi[max_count] = {std::numeric_limits<float>::infinity()};
-  int count = 1;  ///< default: everything
-
-  bool overlaps(float vmin, float vmax) const {
-    for (int k = 0; k < count; ++k)
-      if (vmin <= hi[k] && vmax >= lo[k]) return true;
-    return false;
-  }
-};
-
 inline constexpr int max_sample_group = 32;
 
 inline namespace CELLRAY_ISA_NS {
@@ -66,12 +50,7 @@ template <class A, int N> struct SampleQuery {
     return any == 0;
   }
   bool node_relevant(float vmin, float vmax) const { return vmin <= vmax && windows.overlaps(vmin, vmax); }
-  vmask<A> relevant(vfloat<A> const& vmin, vfloat<A> const& vmax) const {
-    vmask<A> m(false);
-    for (int k = 0; k < windows.count; ++k)
-      m = m || (vmin <= vfloat<A>(windows.hi[k]) && vmax >= vfloat<A>(windows.lo[k]));
-    return m && vmin <= vmax;
-  }
+  vmask<A> relevant(vfloat<A> const& vmin, vfloat<A> const& vmax) const { return windows_overlap<A>(windows, vmin, vmax); }
   vfloat<A> t_lo() const { return t_first; }
   vfloat<A> t_hi() const { return t_last; }
 
@@ -116,14 +95,7 @@ template <class A, int N> struct SampleQuery {
   }
 
   void leaf_items(vint<A> const& slots, vmask<A> const& m) {
-    alignas(64) int32_t s[W], cells[W];
-    simd::store(s, slots);
-    for (int l = 0; l < W; ++l) cells[l] = 0;
-    for (uint32_t b = simd::movemask(m); b; b &= b - 1) {
-      int const l = __builtin_ctz(b);
-      cells[l] = int32_t(uint32_t(tree.item(uint64_t(uint32_t(s[l])))));
-    }
-    visit(gather_corners<A, N>(mesh, simd::load<A>(cells), m), m);
+    visit(gather_corners<A, N>(mesh, slot_cells<A>(tree, slots, m), m), m);
   }
 
 

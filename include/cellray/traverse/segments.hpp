@@ -40,12 +40,7 @@ template <class A, int N> struct SegmentQuery {
 
   bool done() const { return false; }
   bool node_relevant(float vmin, float vmax) const { return vmin <= vmax && windows.overlaps(vmin, vmax); }
-  vmask<A> relevant(vfloat<A> const& vmin, vfloat<A> const& vmax) const {
-    vmask<A> m(false);
-    for (int k = 0; k < windows.count; ++k)
-      m = m || (vmin <= vfloat<A>(windows.hi[k]) && vmax >= vfloat<A>(windows.lo[k]));
-    return m && vmin <= vmax;
-  }
+  vmask<A> relevant(vfloat<A> const& vmin, vfloat<A> const& vmax) const { return windows_overlap<A>(windows, vmin, vmax); }
   vfloat<A> t_lo() const { return lo; }
   vfloat<A> t_hi() const { return hi; }
 
@@ -91,14 +86,7 @@ template <class A, int N> struct SegmentQuery {
     }
   }
   void leaf_items(vint<A> const& slots, vmask<A> const& m) {
-    alignas(64) int32_t s[W], cells[W];
-    simd::store(s, slots);
-    for (int l = 0; l < W; ++l) cells[l] = 0;
-    for (uint32_t b = simd::movemask(m); b; b &= b - 1) {
-      int const l = __builtin_ctz(b);
-      cells[l] = int32_t(uint32_t(tree.item(uint64_t(uint32_t(s[l])))));
-    }
-    vint<A> const cv = simd::load<A>(cells);
+    vint<A> const cv = slot_cells<A>(tree, slots, m);
     visit(gather_corners<A, N>(mesh, cv, m), m, cv);
   }
 

@@ -30,6 +30,25 @@ inline constexpr int traversal_stack_size = int(MinMaxBvh::max_depth) + 2;
 
 template <class A> inline int popcount(vmask<A> const& m) { return __builtin_popcount(simd::movemask(m)); }
 
+/// The cell ids at item-list `slots` for the lanes in `m` (0 elsewhere).
+template <class A> inline vint<A> slot_cells(TreeView const& tree, vint<A> const& slots, vmask<A> const& m) {
+  alignas(64) int32_t s[width<A>], cells[width<A>] = {};
+  simd::store(s, slots);
+  for (uint32_t b = simd::movemask(m); b; b &= b - 1) {
+    int const l = __builtin_ctz(b);
+    cells[l] = int32_t(uint32_t(tree.item(uint64_t(uint32_t(s[l])))));
+  }
+  return simd::load<A>(cells);
+}
+
+/// Lanes whose [vmin, vmax] overlaps one of the value windows (SPMD node filter).
+template <class A>
+inline vmask<A> windows_overlap(ValueWindows const& w, vfloat<A> const& vmin, vfloat<A> const& vmax) {
+  vmask<A> m(false);
+  for (int k = 0; k < w.count; ++k) m = m || (vmin <= vfloat<A>(w.hi[k]) && vmax >= vfloat<A>(w.lo[k]));
+  return m && vmin <= vmax;
+}
+
 template <class A, class Query>
 void traverse_spmd(TreeView const& tree, RayPacket<A> const& r, vmask<A> active, Query& q, uint32_t root = 0);
 

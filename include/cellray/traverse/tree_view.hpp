@@ -4,6 +4,7 @@
 // (bvh/), so one tree serves any time step.
 
 #include <cstdint>
+#include <limits>
 
 #include "../bvh/node.hpp"
 #include "../cells/queries.hpp"
@@ -46,6 +47,22 @@ struct IsoSet {
   bool overlaps(float vmin, float vmax) const {
     for (int k = 0; k < count; ++k)
       if (values[k] >= vmin && values[k] <= vmax) return true;
+    return false;
+  }
+};
+
+/// Value intervals a sampling traversal may skip outside of: a subtree whose
+/// range [vmin, vmax] overlaps none of them holds nothing visible (e.g. the
+/// transfer function is transparent there: empty-space skipping).
+struct ValueWindows {
+  static constexpr int max_count = 16;
+  float lo[max_count] = {-std::numeric_limits<float>::infinity()};
+  float hi[max_count] = {std::numeric_limits<float>::infinity()};
+  int count = 1;  ///< default: everything
+
+  bool overlaps(float vmin, float vmax) const {
+    for (int k = 0; k < count; ++k)
+      if (vmin <= hi[k] && vmax >= lo[k]) return true;
     return false;
   }
 };
