@@ -63,13 +63,18 @@ template <class T, class Key> T* radix_sort30(T* a, T* tmp, uint64_t n, Key cons
 /// sorted codes) for items 0..n-1.
 template <class Index>
 void morton_order(ItemBox const* boxes, uint64_t n, Box3 const& cb, Index* items, uint32_t* codes) {
-  float const extent = std::max({cb.hi[0] - cb.lo[0], cb.hi[1] - cb.lo[1], cb.hi[2] - cb.lo[2]});
-  float const scale = extent > 0.f ? 1024.f / extent : 0.f;
+  // Double: a float extent can overflow (coordinates near FLT_MAX), and
+  // inf * 0 would give NaN, which must not reach the integer conversion.
+  double const extent = std::max({double(cb.hi[0]) - cb.lo[0], double(cb.hi[1]) - cb.lo[1], double(cb.hi[2]) - cb.lo[2]});
+  double const scale = extent > 0.0 ? 1024.0 / extent : 0.0;
   auto code_of = [&](uint64_t i) {
     float c[3];
     centroid2(boxes[i], c);
     uint32_t q[3];
-    for (int k = 0; k < 3; ++k) q[k] = uint32_t(std::min(std::max((c[k] - cb.lo[k]) * scale, 0.f), 1023.f));
+    for (int k = 0; k < 3; ++k) {
+      double const t = (double(c[k]) - cb.lo[k]) * scale;
+      q[k] = t >= 0.0 ? uint32_t(std::min(t, 1023.0)) : 0u;  // NaN -> 0
+    }
     return spread_bits10(q[0]) | spread_bits10(q[1]) << 1 | spread_bits10(q[2]) << 2;
   };
   if constexpr (sizeof(Index) == 4) {

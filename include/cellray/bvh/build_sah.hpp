@@ -50,8 +50,9 @@ template <class Index> struct SahSplitter {
   /// Bin of a doubled centroid coordinate; the one function binning and
   /// partitioning share, so both put every item in the same bin.
   static int bin_of(float c, float lo, float scale, int nbins) noexcept {
-    int const k = int((c - lo) * scale);
-    return std::min(std::max(k, 0), nbins - 1);
+    // Clamp in float: an out-of-range or NaN float-to-int conversion is UB.
+    float const t = (c - lo) * scale;
+    return t >= 0.f ? (t < float(nbins) ? int(t) : nbins - 1) : 0;
   }
 
   Split split(uint64_t b, uint64_t e, uint32_t depth, Box3 const& cb) {
