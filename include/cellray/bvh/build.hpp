@@ -93,8 +93,9 @@ inline BoxScan scan_boxes_parallel(ItemBox const* boxes, uint64_t n) {
 }
 
 /// `cb`: bounds of the doubled centroids of all n boxes (from the scan).
+/// The SAH and median builders reorder `boxes` (a scratch copy).
 template <class Index>
-MinMaxBvh build_tree(ItemBox const* boxes, uint64_t n, Box3 const& cb, BuildOptions const& opt) {
+MinMaxBvh build_tree(ItemBox* boxes, uint64_t n, Box3 const& cb, BuildOptions const& opt) {
   MinMaxBvh bvh;
   BvhAccess::set_info(bvh, sizeof(Index) == 8, opt.builder, opt.max_leaf_size, 0);
   BvhAccess::piece_offsets(bvh) = {0, n};
@@ -104,34 +105,31 @@ MinMaxBvh build_tree(ItemBox const* boxes, uint64_t n, Box3 const& cb, BuildOpti
   if (opt.builder == BvhBuilder::morton) {
     std::unique_ptr<uint32_t[]> codes(new uint32_t[n]);
     morton_order(boxes, n, cb, items.data(), codes.get());
-    MortonSplitter<Index> s{codes.get(), opt.max_leaf_size};
+    MortonSplitter<Index> s{codes.get(), boxes, items.data(), opt.max_leaf_size};
     root = build_upper(s, 0, n, 0, Box3{});
   } else {
     tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, scan_block), [&](tbb::blocked_range<uint64_t> const& r) {
       for (uint64_t i = r.begin(); i < r.end(); ++i) items[i] = Index(i);
     });
-    std::vector<Index> scratch(n);
+    Slots<Index> const slots{boxes, items.data()};
     if (opt.builder == BvhBuilder::spatial_median) {
-      MedianSplitter<Index> s{boxes, items.data(), scratch.data(), opt.max_leaf_size, opt.sah};
+      MedianSplitter<Index> s{slots, opt.max_leaf_size, opt.sah};
       root = build_upper(s, 0, n, 0, cb);
     } else {
-      SahSplitter<Index> s{boxes, items.data(), scratch.data(), opt.max_leaf_size, opt.sah, opt.sah_bins};
+      SahSplitter<Index> s{slots, opt.max_leaf_size, opt.sah, opt.sah_bins};
       root = build_upper(s, 0, n, 0, cb);
     }
   }
-  std::vector<Node>& nodes = BvhAccess::nodes(bvh);
-  nodes = assemble(*root);
+  assemble(*root, BvhAccess::nodes(bvh), BvhAccess::ranges(bvh));
+  uint32_t const depth = root->depth;
   root.reset();
-  ValueRanges& ranges = BvhAccess::ranges(bvh);
-  ranges.resize(nodes.size());
-  uint32_t const depth = fit_bounds_and_ranges(nodes.data(), ranges.data(), boxes, items.data(), 0, 0);
   BvhAccess::set_info(bvh, sizeof(Index) == 8, opt.builder, opt.max_leaf_size, depth);
   if constexpr (sizeof(Index) == 8) BvhAccess::items64(bvh) = std::move(items);
   else BvhAccess::items32(bvh) = std::move(items);
   return bvh;
 }
 
-inline MinMaxBvh build_any(ItemBox const* boxes, uint64_t n, Box3 const& cb, BuildOptions const& opt) {
+inline MinMaxBvh build_any(ItemBox* boxes, uint64_t n, Box3 const& cb, BuildOptions const& opt) {
   if (opt.wide_items || n > uint64_t(std::numeric_limits<uint32_t>::max()))
     return build_tree<uint64_t>(boxes, n, cb, opt);
   return build_tree<uint32_t>(boxes, n, cb, opt);
@@ -229,7 +227,14 @@ inline MinMaxBvh build_minmax_bvh(Span<ItemBox> boxes, BuildOptions const& opt =
   detail::BoxScan const scan = detail::scan_boxes_parallel(boxes.data, boxes.size);
   if (scan.first_bad != std::numeric_limits<uint64_t>::max())
     throw InvalidArgument("item " + std::to_string(scan.first_bad) + " has a non-finite bound or lo > hi");
-  MinMaxBvh bvh = detail::build_any(boxes.data, boxes.size, scan.centroids, opt);
+  // The builders reorder their boxes: work on a copy.
+  std::unique_ptr<ItemBox[]> copy(new ItemBox[boxes.size]);
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, boxes.size, detail::scan_block),
+                    [&](tbb::blocked_range<uint64_t> const& r) {
+                      std::copy(boxes.data + r.begin(), boxes.data + r.end(), copy.get() + r.begin());
+                    });
+  MinMaxBvh bvh = detail::build_any(copy.get(), boxes.size, scan.centroids, opt);
+  copy.reset();
   detail::BvhAccess::set_seconds(bvh, detail::seconds_since(t0));
   return bvh;
 }

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -22,6 +23,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
+#include <xsimd/xsimd.hpp>
 
 #include "../mesh/cell_boxes.hpp"
 #include "node.hpp"
@@ -110,20 +112,114 @@ struct Box3 {
   }
 };
 
+/// The 8 floats of an item box: lo xyz, vmin, hi xyz, vmax.
+inline void load8(ItemBox const& b, float* v) noexcept { std::memcpy(v, &b, sizeof(ItemBox)); }
+
 /// Centroid of an item box times two (lo + hi): halving changes no decision.
 inline void centroid2(ItemBox const& b, float* c) noexcept {
-  c[0] = b.lo.x + b.hi.x;
-  c[1] = b.lo.y + b.hi.y;
-  c[2] = b.lo.z + b.hi.z;
+  float v[8];
+  load8(b, v);
+  for (int k = 0; k < 3; ++k) c[k] = v[k] + v[4 + k];
 }
 
-/// Bounds of the doubled centroids of items [b, e); parallel for large ranges.
-template <class Index>
-Box3 centroid_bounds(ItemBox const* boxes, Index const* items, uint64_t b, uint64_t e) {
+/// Four float lanes for the builders' inner loops (min/max of lo xyz + vmin
+/// and hi xyz + vmax, bin indices). The builders run in the host's own
+/// translation units, not in the ISA units, so this is the baseline ISA:
+/// SSE2 on x86-64 (every x86-64 CPU has it), plain floats elsewhere. GCC 12
+/// does not vectorise the scalar form (measured: 8 minss per box update).
+struct F4 {
+#if XSIMD_WITH_SSE2
+  xsimd::batch<float, xsimd::sse2> x;
+
+  static F4 load(float const* p) noexcept { return {xsimd::batch<float, xsimd::sse2>::load_unaligned(p)}; }
+  static F4 splat(float v) noexcept { return {xsimd::batch<float, xsimd::sse2>(v)}; }
+  void store(float* p) const noexcept { x.store_unaligned(p); }
+  friend F4 operator+(F4 a, F4 b) noexcept { return {a.x + b.x}; }
+  friend F4 operator-(F4 a, F4 b) noexcept { return {a.x - b.x}; }
+  friend F4 operator*(F4 a, F4 b) noexcept { return {a.x * b.x}; }
+  /// Lane-wise a < b ? a : b (b when either is NaN): SSE minps, one instruction.
+  friend F4 min(F4 a, F4 b) noexcept { return {xsimd::min(a.x, b.x)}; }
+  /// Lane-wise a > b ? a : b (b when either is NaN): SSE maxps.
+  friend F4 max(F4 a, F4 b) noexcept { return {xsimd::max(a.x, b.x)}; }
+  /// Truncation to int of lanes known to lie in [0, 2^31).
+  void to_int(int32_t* out) const noexcept { xsimd::batch_cast<int32_t>(x).store_unaligned(out); }
+#else
+  float x[4];
+
+  static F4 load(float const* p) noexcept { return {{p[0], p[1], p[2], p[3]}}; }
+  static F4 splat(float v) noexcept { return {{v, v, v, v}}; }
+  void store(float* p) const noexcept { std::copy(x, x + 4, p); }
+  template <class Op> static F4 map(F4 a, F4 b, Op op) noexcept {
+    return {{op(a.x[0], b.x[0]), op(a.x[1], b.x[1]), op(a.x[2], b.x[2]), op(a.x[3], b.x[3])}};
+  }
+  friend F4 operator+(F4 a, F4 b) noexcept { return map(a, b, [](float u, float v) { return u + v; }); }
+  friend F4 operator-(F4 a, F4 b) noexcept { return map(a, b, [](float u, float v) { return u - v; }); }
+  friend F4 operator*(F4 a, F4 b) noexcept { return map(a, b, [](float u, float v) { return u * v; }); }
+  friend F4 min(F4 a, F4 b) noexcept { return map(a, b, [](float u, float v) { return u < v ? u : v; }); }
+  friend F4 max(F4 a, F4 b) noexcept { return map(a, b, [](float u, float v) { return u > v ? u : v; }); }
+  void to_int(int32_t* out) const noexcept {
+    for (int k = 0; k < 4; ++k) out[k] = int32_t(x[k]);
+  }
+#endif
+};
+
+/// Half the surface area of the box [lo, hi] (lanes 0-2); 0 when empty.
+inline float half_area(F4 lo, F4 hi) noexcept {
+  alignas(16) float d[4];
+  (hi - lo).store(d);
+  if (!(d[0] >= 0.f && d[1] >= 0.f && d[2] >= 0.f)) return 0.f;
+  return d[0] * d[1] + d[1] * d[2] + d[2] * d[0];
+}
+
+/// Grows the 8 floats `acc` (lo xyz + vmin, hi xyz + vmax) by the 8 floats
+/// `v` of an item box or another accumulator: one 4-wide min and one max.
+inline void grow8(float* acc, float const* v) noexcept {
+  min(F4::load(v), F4::load(acc)).store(acc);
+  max(F4::load(v + 4), F4::load(acc + 4)).store(acc + 4);
+}
+
+/// Bounds and value range in four lanes each, laid out like an ItemBox:
+/// v = lo xyz, vmin, hi xyz, vmax. Plain data (no initialiser, so arrays of
+/// bins cost nothing until reset); `empty()` is the empty box and range.
+struct alignas(16) Bounds4 {
+  float v[8];
+
+  static Bounds4 empty() noexcept { return {{inf_f, inf_f, inf_f, inf_f, -inf_f, -inf_f, -inf_f, -inf_f}}; }
+  void grow(float const* x) noexcept { grow8(v, x); }
+  void grow(Bounds4 const& o) noexcept { grow8(v, o.v); }
+  void grow(ItemBox const& b) noexcept { grow8(v, reinterpret_cast<float const*>(&b)); }
+  Box3 box() const noexcept {
+    Box3 b;
+    b.grow(v, v + 4);
+    return b;
+  }
+  /// Writes the bounds into `n` and returns the value range.
+  NodeRange store(Node& n) const noexcept {
+    for (int k = 0; k < 3; ++k) n.lo[k] = v[k], n.hi[k] = v[4 + k];
+    return {v[3], v[7]};
+  }
+};
+
+/// The item slots of a build: slot s holds item `id[s]` whose box is
+/// `box[s]`. The SAH and median builders reorder both arrays together, in
+/// place, so every pass reads the boxes of a range contiguously; when the
+/// build ends `id` is the item list and a leaf's boxes are its slots'.
+template <class Index> struct Slots {
+  ItemBox* box;
+  Index* id;
+
+  void swap(uint64_t i, uint64_t j) const noexcept {
+    std::swap(box[i], box[j]);
+    std::swap(id[i], id[j]);
+  }
+};
+
+/// Bounds of the doubled centroids of slots [b, e); parallel for large ranges.
+inline Box3 centroid_bounds(ItemBox const* boxes, uint64_t b, uint64_t e) {
   auto body = [&](uint64_t lo, uint64_t hi, Box3 acc) {
     for (uint64_t i = lo; i < hi; ++i) {
       float c[3];
-      centroid2(boxes[items[i]], c);
+      centroid2(boxes[i], c);
       acc.grow_point(c);
     }
     return acc;
@@ -138,110 +234,150 @@ Box3 centroid_bounds(ItemBox const* boxes, Index const* items, uint64_t b, uint6
       });
 }
 
-/// Box of items [b, e), sequential (small ranges only).
-template <class Index> Box3 item_bounds(ItemBox const* boxes, Index const* items, uint64_t b, uint64_t e) {
-  Box3 box;
-  for (uint64_t i = b; i < e; ++i) box.grow(boxes[items[i]]);
-  return box;
-}
-
-/// A split of items [b, e): children [b, m) and [m, e) with the bounds of
+/// A split of slots [b, e): children [b, m) and [m, e) with the bounds of
 /// their doubled centroids; m == e means "make a leaf".
 struct Split {
   uint64_t m;
   Box3 left, right;
 };
 
-/// Reorders items[b, e) so that those whose doubled centroid satisfies
-/// `goes_left(c)` come first; returns the split with both sides' centroid
-/// bounds (so children never rescan for them). Large ranges: stable,
-/// parallel over fixed blocks, through `scratch[b, e)`. Small ranges: an
-/// in-place two-ended partition (sequential).
-template <class Index, class Pred>
-Split partition_items(ItemBox const* boxes, Index* items, Index* scratch, uint64_t b, uint64_t e,
-                      Pred const& goes_left) {
-  uint64_t const n = e - b;
-  Split out{b, {}, {}};
-  if (n < parallel_scan_items) {
-    uint64_t i = b, j = e;  // [b, i) go left, [j, e) go right
-    float c[3];
-    while (true) {
-      while (i < j) {
-        centroid2(boxes[items[i]], c);
-        if (!goes_left(c)) break;
-        out.left.grow_point(c);
-        ++i;
-      }
-      if (i == j) break;
-      out.right.grow_point(c);  // items[i] goes right; find a left one behind it
-      bool swapped = false;
-      while (--j > i) {
-        centroid2(boxes[items[j]], c);
-        if (goes_left(c)) {
-          out.left.grow_point(c);
-          std::swap(items[i], items[j]);
-          ++i;
-          swapped = true;
-          break;
-        }
-        out.right.grow_point(c);
-      }
-      if (!swapped) break;  // j == i: everything from i on goes right
-    }
-    out.m = i;
-    return out;
+/// Bounds of points in four lanes (the fourth is carried along, never read).
+struct PointBounds4 {
+  F4 lo = F4::splat(inf_f), hi = F4::splat(-inf_f);
+
+  void grow(F4 p) noexcept { lo = min(p, lo), hi = max(p, hi); }
+  Box3 box() const noexcept {
+    alignas(16) float l[4], h[4];
+    lo.store(l);
+    hi.store(h);
+    Box3 b;
+    b.grow(l, h);
+    return b;
   }
+};
+
+/// Doubled centroid of an item box in lanes 0-2 (lane 3: vmin + vmax).
+inline F4 centroid4(ItemBox const& b) noexcept {
+  float const* v = reinterpret_cast<float const*>(&b);
+  return F4::load(v) + F4::load(v + 4);
+}
+
+/// Two-ended in-place partition of slots [b, e) (sequential): those whose
+/// doubled centroid satisfies `goes_left(c)` come first.
+template <class Index, class Pred>
+Split partition_sequential(Slots<Index> const& s, uint64_t b, uint64_t e, Pred const& goes_left) {
+  PointBounds4 left, right;
+  uint64_t i = b, j = e;  // [b, i) go left, [j, e) go right
+  alignas(16) float c[4];
+  while (true) {
+    while (i < j) {
+      F4 const p = centroid4(s.box[i]);
+      p.store(c);
+      if (!goes_left(c)) {
+        right.grow(p);  // slot i goes right; find a left one behind it
+        break;
+      }
+      left.grow(p);
+      ++i;
+    }
+    if (i == j) break;
+    bool swapped = false;
+    while (--j > i) {
+      F4 const p = centroid4(s.box[j]);
+      p.store(c);
+      if (goes_left(c)) {
+        left.grow(p);
+        s.swap(i, j);
+        ++i;
+        swapped = true;
+        break;
+      }
+      right.grow(p);
+    }
+    if (!swapped) break;  // j == i: everything from i on goes right
+  }
+  return {i, left.box(), right.box()};
+}
+
+/// Reorders slots [b, e) so that those whose doubled centroid satisfies
+/// `goes_left(c)` come first; returns the split with both sides' centroid
+/// bounds (so children never rescan for them). In place. Large ranges: every
+/// fixed block is partitioned on its own (in parallel), then the right-goers
+/// left of the split point are swapped, in order, with the left-goers right
+/// of it, the k-th with the k-th; the result depends on the block size only,
+/// never on the thread count.
+template <class Index, class Pred>
+Split partition_slots(Slots<Index> const& s, uint64_t b, uint64_t e, Pred const& goes_left) {
+  uint64_t const n = e - b;
+  if (n < parallel_scan_items) return partition_sequential(s, b, e, goes_left);
   uint64_t const blocks = (n + scan_block - 1) / scan_block;
-  std::vector<uint64_t> left(blocks + 1, 0);
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks), [&](tbb::blocked_range<uint64_t> const& r) {
+  std::vector<Split> part(blocks);
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& r) {
+    for (uint64_t k = r.begin(); k < r.end(); ++k)
+      part[k] = partition_sequential(s, b + k * scan_block, std::min(e, b + (k + 1) * scan_block), goes_left);
+  });
+  Split out{b, {}, {}};
+  for (uint64_t k = 0; k < blocks; ++k) {
+    out.m += part[k].m - (b + k * scan_block);
+    out.left.grow(part[k].left);
+    out.right.grow(part[k].right);
+  }
+  uint64_t const mid = out.m;
+  // Misplaced runs, in slot order: right-goers in [b, mid), left-goers in [mid, e).
+  struct Run {
+    uint64_t begin, before;  ///< first slot; misplaced slots in earlier runs
+  };
+  std::vector<Run> wrong_left, wrong_right;
+  uint64_t nl = 0, nr = 0;
+  for (uint64_t k = 0; k < blocks; ++k) {
+    uint64_t const lo = b + k * scan_block, hi = std::min(e, lo + scan_block), m = part[k].m;
+    uint64_t const r0 = m, r1 = std::min(hi, mid);  // right-goers left of mid
+    if (r0 < r1) wrong_left.push_back({r0, nl}), nl += r1 - r0;
+    uint64_t const l0 = std::max(lo, mid), l1 = m;  // left-goers right of mid
+    if (l0 < l1) wrong_right.push_back({l0, nr}), nr += l1 - l0;
+  }
+  if (nl == 0) return out;  // nl == nr: both sides hold as many strays
+  auto slot_of = [](std::vector<Run> const& runs, uint64_t k) {
+    auto it = std::upper_bound(runs.begin(), runs.end(), k, [](uint64_t x, Run const& r) { return x < r.before; });
+    --it;
+    return std::make_pair(size_t(it - runs.begin()), it->begin + (k - it->before));
+  };
+  auto run_end = [](std::vector<Run> const& runs, size_t r, uint64_t total) {
+    return runs[r].begin + ((r + 1 < runs.size() ? runs[r + 1].before : total) - runs[r].before);
+  };
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nl, scan_block), [&](tbb::blocked_range<uint64_t> const& r) {
+    auto [ri, i] = slot_of(wrong_left, r.begin());
+    auto [rj, j] = slot_of(wrong_right, r.begin());
+    uint64_t iend = run_end(wrong_left, ri, nl), jend = run_end(wrong_right, rj, nr);
     for (uint64_t k = r.begin(); k < r.end(); ++k) {
-      uint64_t const lo = b + k * scan_block, hi = std::min(e, lo + scan_block);
-      uint64_t cnt = 0;
-      float c[3];
-      for (uint64_t i = lo; i < hi; ++i) {
-        centroid2(boxes[items[i]], c);
-        cnt += goes_left(c) ? 1 : 0;
-      }
-      left[k + 1] = cnt;
+      if (i == iend) ++ri, i = wrong_left[ri].begin, iend = run_end(wrong_left, ri, nl);
+      if (j == jend) ++rj, j = wrong_right[rj].begin, jend = run_end(wrong_right, rj, nr);
+      s.swap(i++, j++);
     }
   });
-  for (uint64_t k = 0; k < blocks; ++k) left[k + 1] += left[k];
-  uint64_t const total_left = left[blocks];
-  std::vector<Box3> lbox(blocks), rbox(blocks);
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks), [&](tbb::blocked_range<uint64_t> const& r) {
-    for (uint64_t k = r.begin(); k < r.end(); ++k) {
-      uint64_t const lo = b + k * scan_block, hi = std::min(e, lo + scan_block);
-      uint64_t l = b + left[k], g = b + total_left + (k * scan_block - left[k]);
-      float c[3];
-      for (uint64_t i = lo; i < hi; ++i) {
-        Index const id = items[i];
-        centroid2(boxes[id], c);
-        if (goes_left(c)) scratch[l++] = id, lbox[k].grow_point(c);
-        else scratch[g++] = id, rbox[k].grow_point(c);
-      }
-    }
-  });
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(b, e, scan_block), [&](tbb::blocked_range<uint64_t> const& r) {
-    std::copy(scratch + r.begin(), scratch + r.end(), items + r.begin());
-  });
-  for (uint64_t k = 0; k < blocks; ++k) out.left.grow(lbox[k]), out.right.grow(rbox[k]);
-  out.m = b + total_left;
   return out;
 }
 
-/// Object-median split of items [b, e) along `axis` of the doubled centroids
-/// (ties by id, so the order is total); sequential nth_element. Used for
+/// Object-median split of slots [b, e) along `axis` of the doubled
+/// centroids (ties by id, so the order is total); sequential. Used for
 /// degenerate and very deep ranges only.
-template <class Index>
-Split object_median_split(ItemBox const* boxes, Index* items, uint64_t b, uint64_t e, int axis) {
-  uint64_t const m = b + (e - b) / 2;
-  std::nth_element(items + b, items + m, items + e, [&](Index x, Index y) {
+template <class Index> Split object_median_split(Slots<Index> const& s, uint64_t b, uint64_t e, int axis) {
+  uint64_t const n = e - b, half = n / 2;
+  std::vector<uint64_t> order(n);
+  for (uint64_t i = 0; i < n; ++i) order[i] = b + i;
+  std::nth_element(order.begin(), order.begin() + int64_t(half), order.end(), [&](uint64_t x, uint64_t y) {
     float cx[3], cy[3];
-    centroid2(boxes[x], cx);
-    centroid2(boxes[y], cy);
-    return cx[axis] < cy[axis] || (cx[axis] == cy[axis] && x < y);
+    centroid2(s.box[x], cx);
+    centroid2(s.box[y], cy);
+    return cx[axis] < cy[axis] || (cx[axis] == cy[axis] && s.id[x] < s.id[y]);
   });
-  return {m, centroid_bounds(boxes, items, b, m), centroid_bounds(boxes, items, m, e)};
+  std::vector<ItemBox> boxes(n);
+  std::vector<Index> ids(n);
+  for (uint64_t i = 0; i < n; ++i) boxes[i] = s.box[order[i]], ids[i] = s.id[order[i]];
+  std::copy(boxes.begin(), boxes.end(), s.box + b);
+  std::copy(ids.begin(), ids.end(), s.id + b);
+  uint64_t const m = b + half;
+  return {m, centroid_bounds(s.box, b, m), centroid_bounds(s.box, m, e)};
 }
 
 /// A leaf, or (more than `max_leaf` items) a split in the middle keeping the
@@ -266,44 +402,67 @@ inline int widest_axis(Box3 const& b) noexcept {
 }
 
 /// A subtree under construction: either a private node buffer (root at 0,
-/// children at local indices) or an upper node with two subtrees.
+/// children at local indices, bounds and ranges set) or an upper node with
+/// two subtrees. `fit` is the subtree root's bounds and value range,
+/// `depth` the absolute depth of its deepest leaf.
 struct Subtree {
   std::vector<Node> nodes;
+  std::vector<NodeRange> ranges;
   std::unique_ptr<Subtree> child[2];
+  Bounds4 fit = Bounds4::empty();
+  uint32_t depth = 0;
   uint64_t total = 0;
 };
 
 // Splitter interface: `Split split(b, e, depth, cb)`, cb = bounds of the
-// doubled centroids of items [b, e), returns m in (b, e) after reordering
-// items[b, e) so [b, m) and [m, e) are the children (with their centroid
+// doubled centroids of slots [b, e), returns m in (b, e) after reordering
+// slots [b, e) so [b, m) and [m, e) are the children (with their centroid
 // bounds), or m = e to make [b, e) a leaf. It must split every range larger
-// than the leaf size.
+// than the leaf size. `Bounds4 leaf_fit(b, e)`: bounds and range of the
+// items in slots [b, e).
+
+/// Builds the subtree of slots [b, e) into `nodes`/`ranges` at `self`,
+/// fitting bounds and ranges on the way back up; returns its deepest leaf's depth.
 template <class Splitter>
-void build_local(Splitter& s, uint64_t b, uint64_t e, uint32_t depth, Box3 const& cb, uint32_t self,
-                 std::vector<Node>& out) {
+uint32_t build_local(Splitter& s, uint64_t b, uint64_t e, uint32_t depth, Box3 const& cb, uint32_t self,
+                     std::vector<Node>& nodes, std::vector<NodeRange>& ranges, Bounds4& fit) {
   Split const sp = s.split(b, e, depth, cb);
   if (sp.m == e) {
-    out[self].set_leaf(b, uint32_t(e - b));
-    return;
+    fit = s.leaf_fit(b, e);
+    nodes[self].set_leaf(b, uint32_t(e - b));
+    ranges[self] = fit.store(nodes[self]);
+    return depth;
   }
-  auto const c = uint32_t(out.size());
-  out.resize(out.size() + 2);
-  out[self].set_inner(c);
-  build_local(s, b, sp.m, depth + 1, sp.left, c, out);
-  build_local(s, sp.m, e, depth + 1, sp.right, c + 1, out);
+  auto const c = uint32_t(nodes.size());
+  nodes.resize(nodes.size() + 2);
+  ranges.resize(ranges.size() + 2);
+  nodes[self].set_inner(c);
+  Bounds4 r;  // set by the callee
+  uint32_t const dl = build_local(s, b, sp.m, depth + 1, sp.left, c, nodes, ranges, fit);
+  uint32_t const dr = build_local(s, sp.m, e, depth + 1, sp.right, c + 1, nodes, ranges, r);
+  fit.grow(r);
+  ranges[self] = fit.store(nodes[self]);
+  return std::max(dl, dr);
 }
 
 template <class Splitter>
 std::unique_ptr<Subtree> build_upper(Splitter& s, uint64_t b, uint64_t e, uint32_t depth, Box3 const& cb) {
   auto t = std::make_unique<Subtree>();
   if (e - b <= local_build_items) {
+    // About 2 (e - b) / leaf nodes: reserve so the recursion rarely reallocates.
+    t->nodes.reserve(2 * (e - b) / 3 + 8);
+    t->ranges.reserve(2 * (e - b) / 3 + 8);
     t->nodes.resize(1);
-    build_local(s, b, e, depth, cb, 0, t->nodes);
+    t->ranges.resize(1);
+    t->depth = build_local(s, b, e, depth, cb, 0, t->nodes, t->ranges, t->fit);
     return t;
   }
   Split const sp = s.split(b, e, depth, cb);  // never a leaf: e - b > local_build_items >= max leaf
   tbb::parallel_invoke([&] { t->child[0] = build_upper(s, b, sp.m, depth + 1, sp.left); },
                        [&] { t->child[1] = build_upper(s, sp.m, e, depth + 1, sp.right); });
+  t->fit = t->child[0]->fit;
+  t->fit.grow(t->child[1]->fit);
+  t->depth = std::max(t->child[0]->depth, t->child[1]->depth);
   return t;
 }
 
@@ -320,78 +479,45 @@ struct PlaceJob {
 
 /// Depth-first layout: a root at `self`, its two children at next and
 /// next + 1, then the left subtree's other nodes, then the right one's.
-inline void place(Subtree const& t, uint64_t self, uint64_t next, Node* out, std::vector<PlaceJob>& jobs) {
+inline void place(Subtree const& t, uint64_t self, uint64_t next, Node* out, NodeRange* ranges,
+                  std::vector<PlaceJob>& jobs) {
   if (!t.nodes.empty()) {
     jobs.push_back({&t, self, next});
     return;
   }
   out[self].set_inner(uint32_t(next));
+  ranges[self] = t.fit.store(out[self]);
   uint64_t const left_rest = next + 2, right_rest = left_rest + (t.child[0]->total - 1);
-  place(*t.child[0], next, left_rest, out, jobs);
-  place(*t.child[1], next + 1, right_rest, out, jobs);
+  place(*t.child[0], next, left_rest, out, ranges, jobs);
+  place(*t.child[1], next + 1, right_rest, out, ranges, jobs);
 }
 
-/// The final node array of a built subtree (bounds not yet set).
-inline std::vector<Node> assemble(Subtree& root) {
+/// The final node and range arrays of a built subtree.
+inline void assemble(Subtree& root, std::vector<Node>& nodes, ValueRanges& ranges) {
   uint64_t const total = count_nodes(root);
   if (total >= uint64_t(Node::inner)) throw Error("BVH would need more than 2^32 - 2 nodes");
-  std::vector<Node> nodes(total);
+  nodes.resize(total);
+  ranges.resize(total);
   std::vector<PlaceJob> jobs;
-  place(root, 0, 1, nodes.data(), jobs);
+  place(root, 0, 1, nodes.data(), ranges.data(), jobs);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, jobs.size(), 1), [&](tbb::blocked_range<size_t> const& r) {
     for (size_t j = r.begin(); j < r.end(); ++j) {
       PlaceJob const& job = jobs[j];
       std::vector<Node> const& local = job.tree->nodes;
+      std::vector<NodeRange> const& local_ranges = job.tree->ranges;
       for (size_t i = 0; i < local.size(); ++i) {
         Node n = local[i];
         if (!n.is_leaf()) n.set_inner(uint32_t(job.next + n.first - 1));
-        nodes[i == 0 ? job.self : job.next + i - 1] = n;
+        uint64_t const at = i == 0 ? job.self : job.next + i - 1;
+        nodes[at] = n;
+        ranges[at] = local_ranges[i];
       }
     }
   });
-  return nodes;
 }
 
 /// Subtrees at most this deep below the root are fitted as parallel tasks.
 inline constexpr uint32_t parallel_fit_depth = 10;
-
-/// Sets the bounds and value range of node `i` and everything below from
-/// the item boxes; returns the depth of its deepest leaf.
-template <class Index>
-uint32_t fit_bounds_and_ranges(Node* nodes, NodeRange* ranges, ItemBox const* boxes, Index const* items, uint64_t i,
-                               uint32_t depth) {
-  Node& n = nodes[i];
-  if (n.is_leaf()) {
-    Box3 box;
-    NodeRange r{inf_f, -inf_f};
-    uint64_t const first = n.first_item();
-    for (uint64_t s = first; s < first + n.item_count(); ++s) {
-      ItemBox const& ib = boxes[items[s]];
-      box.grow(ib);
-      r.vmin = std::min(r.vmin, ib.vmin);
-      r.vmax = std::max(r.vmax, ib.vmax);
-    }
-    std::copy(box.lo, box.lo + 3, n.lo);
-    std::copy(box.hi, box.hi + 3, n.hi);
-    ranges[i] = r;
-    return depth;
-  }
-  uint64_t const l = n.left(), rgt = n.right();
-  uint32_t dl = 0, dr = 0;
-  if (depth < parallel_fit_depth) {
-    tbb::parallel_invoke([&] { dl = fit_bounds_and_ranges(nodes, ranges, boxes, items, l, depth + 1); },
-                         [&] { dr = fit_bounds_and_ranges(nodes, ranges, boxes, items, rgt, depth + 1); });
-  } else {
-    dl = fit_bounds_and_ranges(nodes, ranges, boxes, items, l, depth + 1);
-    dr = fit_bounds_and_ranges(nodes, ranges, boxes, items, rgt, depth + 1);
-  }
-  for (int k = 0; k < 3; ++k) {
-    n.lo[k] = std::min(nodes[l].lo[k], nodes[rgt].lo[k]);
-    n.hi[k] = std::max(nodes[l].hi[k], nodes[rgt].hi[k]);
-  }
-  ranges[i] = {std::min(ranges[l].vmin, ranges[rgt].vmin), std::max(ranges[l].vmax, ranges[rgt].vmax)};
-  return std::max(dl, dr);
-}
 
 /// Sets the value range of node `i` and everything below from
 /// `item_range(id)` (a NodeRange per item id); bounds and topology untouched.

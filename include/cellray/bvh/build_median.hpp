@@ -9,11 +9,15 @@ namespace cellray {
 namespace detail {
 
 template <class Index> struct MedianSplitter {
-  ItemBox const* boxes;
-  Index* items;
-  Index* scratch;
+  Slots<Index> slots;
   uint32_t max_leaf;
   SahCosts costs;
+
+  Bounds4 leaf_fit(uint64_t b, uint64_t e) const noexcept {
+    Bounds4 f = Bounds4::empty();
+    for (uint64_t i = b; i < e; ++i) f.grow(slots.box[i]);
+    return f;
+  }
 
   Split split(uint64_t b, uint64_t e, uint32_t depth, Box3 const& cb) {
     uint64_t const n = e - b;
@@ -22,14 +26,14 @@ template <class Index> struct MedianSplitter {
     int const axis = widest_axis(cb);
     float const extent = cb.hi[axis] - cb.lo[axis];
     if (!(extent > 0.f)) return leaf_or_halve(b, e, max_leaf, cb);
-    if (depth >= depth_guard) return n <= max_leaf ? leaf : object_median_split(boxes, items, b, e, axis);
+    if (depth >= depth_guard) return n <= max_leaf ? leaf : object_median_split(slots, b, e, axis);
     float const mid = cb.lo[axis] + 0.5f * extent;
     auto const goes_left = [axis, mid](float const* c) { return c[axis] < mid; };
     if (n <= max_leaf) {
       Box3 all, l, r;
       uint64_t nl = 0;
       for (uint64_t i = b; i < e; ++i) {
-        ItemBox const& ib = boxes[items[i]];
+        ItemBox const& ib = slots.box[i];
         float c[3];
         centroid2(ib, c);
         all.grow(ib);
@@ -38,9 +42,9 @@ template <class Index> struct MedianSplitter {
       }
       if (nl == 0 || nl == n || !split_pays(costs, all, l, nl, r, n - nl)) return leaf;
     }
-    Split const sp = partition_items(boxes, items, scratch, b, e, goes_left);
+    Split const sp = partition_slots(slots, b, e, goes_left);
     // mid rounds onto lo when the extent is a few ulps: fall back to counts.
-    if (sp.m == b || sp.m == e) return n <= max_leaf ? leaf : object_median_split(boxes, items, b, e, axis);
+    if (sp.m == b || sp.m == e) return n <= max_leaf ? leaf : object_median_split(slots, b, e, axis);
     return sp;
   }
 };

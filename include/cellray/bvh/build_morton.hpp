@@ -104,7 +104,15 @@ void morton_order(ItemBox const* boxes, uint64_t n, Box3 const& cb, Index* items
 
 template <class Index> struct MortonSplitter {
   uint32_t const* codes;
+  ItemBox const* boxes;  ///< by item id (not reordered)
+  Index const* items;
   uint32_t max_leaf;
+
+  Bounds4 leaf_fit(uint64_t b, uint64_t e) const noexcept {
+    Bounds4 f = Bounds4::empty();
+    for (uint64_t i = b; i < e; ++i) f.grow(boxes[items[i]]);
+    return f;
+  }
 
   /// Centroid bounds are not tracked (the codes carry the geometry).
   Split split(uint64_t b, uint64_t e, uint32_t /*depth*/, Box3 const& /*cb*/) const {

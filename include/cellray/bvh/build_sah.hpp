@@ -13,46 +13,107 @@ namespace detail {
 inline constexpr uint32_t max_sah_bins = 64;
 /// Ranges larger than this are binned along all three axes, smaller ones along the widest.
 inline constexpr uint64_t all_axes_items = 4096;
+/// Ranges of at least this many items bin into two alternating binnings.
+inline constexpr uint64_t two_binnings_items = 256;
+
+/// Bins and their item counts for the three axes. Plain data so that a
+/// Binning is not initialised up front: only the first `nb` entries per axis
+/// are reset and read.
+struct Binning {
+  Bounds4 box[3][max_sah_bins];  ///< lanes 3 (vmin/vmax) are carried along, never read
+  uint64_t count[3][max_sah_bins];
+
+  void reset(int nb, int axis_begin, int axis_end) noexcept {
+    for (int k = axis_begin; k < axis_end; ++k)
+      for (int j = 0; j < nb; ++j) box[k][j] = Bounds4::empty(), count[k][j] = 0;
+  }
+  void merge(Binning const& o, int nb, int axis_begin, int axis_end) noexcept {
+    for (int k = axis_begin; k < axis_end; ++k)
+      for (int j = 0; j < nb; ++j) box[k][j].grow(o.box[k][j]), count[k][j] += o.count[k][j];
+  }
+};
+
+/// How a range maps doubled centroids to bins: bin = (c - lo) * scale,
+/// clamped to [0, nb - 1]. The one mapping binning and partitioning share,
+/// so both put every item in the same bin.
+struct BinMap {
+  float lo[4];     ///< lane 3 unused (0)
+  float scale[4];  ///< 0 for an axis of zero extent (every item in bin 0); lane 3: 0
+  float last;      ///< nb - 1
+
+  int bin(float c, int k) const noexcept {
+    // Clamp in float (t > 0 is false for NaN): an out-of-range or NaN
+    // float-to-int conversion is UB. Same operations as `bins4`.
+    float t = (c - lo[k]) * scale[k];
+    t = t > 0.f ? t : 0.f;
+    t = t < last ? t : last;
+    return int(t);
+  }
+};
+
+/// Adds slots [b, e) to the bins of axes [ka, kb). Consecutive slots go to
+/// two alternating binnings: neighbours in space often share a bin, and one
+/// binning would chain every update on the previous one's store.
+template <int ka, int kb>
+void bin_slots(ItemBox const* box, uint64_t b, uint64_t e, BinMap const& map, Binning& even, Binning& odd) {
+  F4 const lo = F4::load(map.lo), scale = F4::load(map.scale), zero = F4::splat(0.f), last = F4::splat(map.last);
+  auto add = [&](ItemBox const& item, Binning& acc) {
+    float const* v = reinterpret_cast<float const*>(&item);
+    F4 const l = F4::load(v), h = F4::load(v + 4);
+    alignas(16) int32_t j[4];
+    min(max((l + h - lo) * scale, zero), last).to_int(j);
+    for (int k = ka; k < kb; ++k) {
+      float* acc_box = acc.box[k][j[k]].v;
+      min(l, F4::load(acc_box)).store(acc_box);
+      max(h, F4::load(acc_box + 4)).store(acc_box + 4);
+      ++acc.count[k][j[k]];
+    }
+  };
+  uint64_t i = b;
+  for (; i + 1 < e; i += 2) {
+    add(box[i], even);
+    add(box[i + 1], odd);
+  }
+  if (i < e) add(box[i], even);
+}
 
 template <class Index> struct SahSplitter {
-  ItemBox const* boxes;
-  Index* items;
-  Index* scratch;
+  Slots<Index> slots;
   uint32_t max_leaf;
   SahCosts costs;
   uint32_t bins;
 
-  /// Plain data so a Binning is not initialised up front: only the first
-  /// `bins` entries per axis are reset and read. Four lanes (the fourth is
-  /// the item's vmin/vmax, ignored) so that min/max compile to vector ops.
-  struct alignas(16) Bin {
-    float lo[4], hi[4];
-    uint64_t count;
+  Bounds4 leaf_fit(uint64_t b, uint64_t e) const noexcept {
+    Bounds4 f = Bounds4::empty();
+    for (uint64_t i = b; i < e; ++i) f.grow(slots.box[i]);
+    return f;
+  }
 
-    void reset() noexcept {
-      for (int k = 0; k < 4; ++k) lo[k] = inf_f, hi[k] = -inf_f;
-      count = 0;
+  /// Bins slots [b, e) along axes [ka, kb): in fixed blocks (in parallel)
+  /// for large ranges, merged in block order (min, max and integer sums,
+  /// exact in any order).
+  template <int ka, int kb> void bin_range(uint64_t b, uint64_t e, BinMap const& map, int nb, Binning& out) const {
+    uint64_t const n = e - b;
+    if (n < parallel_scan_items) {
+      out.reset(nb, ka, kb);
+      if (n < two_binnings_items) {
+        bin_slots<ka, kb>(slots.box, b, e, map, out, out);
+        return;
+      }
+      Binning odd;
+      odd.reset(nb, ka, kb);
+      bin_slots<ka, kb>(slots.box, b, e, map, out, odd);
+      out.merge(odd, nb, ka, kb);
+      return;
     }
-    void add(float const* l, float const* h) noexcept {
-      for (int k = 0; k < 4; ++k) lo[k] = l[k] < lo[k] ? l[k] : lo[k];
-      for (int k = 0; k < 4; ++k) hi[k] = h[k] > hi[k] ? h[k] : hi[k];
-      ++count;
-    }
-    void merge(Bin const& o) noexcept {
-      add(o.lo, o.hi);
-      count += o.count - 1;
-    }
-  };
-  struct Binning {
-    Bin axis[3][max_sah_bins];
-  };
-
-  /// Bin of a doubled centroid coordinate; the one function binning and
-  /// partitioning share, so both put every item in the same bin.
-  static int bin_of(float c, float lo, float scale, int nbins) noexcept {
-    // Clamp in float: an out-of-range or NaN float-to-int conversion is UB.
-    float const t = (c - lo) * scale;
-    return t >= 0.f ? (t < float(nbins) ? int(t) : nbins - 1) : 0;
+    uint64_t const blocks = (n + scan_block - 1) / scan_block;
+    std::vector<Binning> part(blocks);
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& r) {
+      for (uint64_t q = r.begin(); q < r.end(); ++q)
+        bin_range<ka, kb>(b + q * scan_block, std::min(e, b + (q + 1) * scan_block), map, nb, part[q]);
+    });
+    out = part[0];
+    for (uint64_t q = 1; q < blocks; ++q) out.merge(part[q], nb, ka, kb);
   }
 
   Split split(uint64_t b, uint64_t e, uint32_t depth, Box3 const& cb) {
@@ -61,7 +122,7 @@ template <class Index> struct SahSplitter {
     if (n <= 1) return leaf;
     int const wide = widest_axis(cb);
     if (!(cb.hi[wide] - cb.lo[wide] > 0.f)) return leaf_or_halve(b, e, max_leaf, cb);
-    if (depth >= depth_guard) return n <= max_leaf ? leaf : object_median_split(boxes, items, b, e, wide);
+    if (depth >= depth_guard) return n <= max_leaf ? leaf : object_median_split(slots, b, e, wide);
 
     // Small ranges get fewer bins: the sweep per split, not the binning,
     // dominates there, and a few items need no fine planes.
@@ -69,83 +130,57 @@ template <class Index> struct SahSplitter {
     // Ranges of a private subtree bin the widest axis only: a third of the
     // work, for about 1% more SAH cost (BvhStats, bench_bvh).
     bool const all_axes = n > all_axes_items;
-    float scale[3];
+    BinMap map{{0.f, 0.f, 0.f, 0.f}, {0.f, 0.f, 0.f, 0.f}, float(nb - 1)};
     for (int k = 0; k < 3; ++k) {
       float const ext = cb.hi[k] - cb.lo[k];
-      scale[k] = ext > 0.f && (all_axes || k == wide) ? float(nb) / ext : 0.f;
+      map.lo[k] = cb.lo[k];
+      map.scale[k] = ext > 0.f ? float(nb) / ext : 0.f;
     }
     Binning binning;
-    for (int k = 0; k < 3; ++k)
-      if (scale[k] != 0.f)
-        for (int j = 0; j < nb; ++j) binning.axis[k][j].reset();
-    auto const bin_range = [&](uint64_t lo, uint64_t hi, Binning& acc) {
-      for (uint64_t i = lo; i < hi; ++i) {
-        float box[8];  // lo xyz, vmin, hi xyz, vmax
-        std::memcpy(box, &boxes[items[i]], sizeof(box));
-        for (int k = 0; k < 3; ++k) {
-          if (scale[k] == 0.f) continue;
-          acc.axis[k][bin_of(box[k] + box[4 + k], cb.lo[k], scale[k], nb)].add(box, box + 4);
-        }
-      }
-    };
-    if (n < parallel_scan_items) {
-      bin_range(b, e, binning);
-    } else {
-      // One binning per fixed block, merged in block order.
-      uint64_t const blocks = (n + scan_block - 1) / scan_block;
-      std::vector<Binning> part(blocks);
-      tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& r) {
-        for (uint64_t q = r.begin(); q < r.end(); ++q) {
-          for (int k = 0; k < 3; ++k)
-            if (scale[k] != 0.f)
-              for (int j = 0; j < nb; ++j) part[q].axis[k][j].reset();
-          bin_range(b + q * scan_block, std::min(e, b + (q + 1) * scan_block), part[q]);
-        }
-      });
-      for (uint64_t q = 0; q < blocks; ++q)
-        for (int k = 0; k < 3; ++k)
-          if (scale[k] != 0.f)
-            for (int j = 0; j < nb; ++j) binning.axis[k][j].merge(part[q].axis[k][j]);
-    }
+    int const ka = all_axes ? 0 : wide, kb = all_axes ? 3 : wide + 1;
+    if (all_axes) bin_range<0, 3>(b, e, map, nb, binning);
+    else if (wide == 0) bin_range<0, 1>(b, e, map, nb, binning);
+    else if (wide == 1) bin_range<1, 2>(b, e, map, nb, binning);
+    else bin_range<2, 3>(b, e, map, nb, binning);
 
-    Box3 all;
-    for (int j = 0; j < nb; ++j) all.grow(binning.axis[wide][j].lo, binning.axis[wide][j].hi);
-    int best_axis = -1, best_plane = 0;
     float best = inf_f;  // sum over children of (half area x items)
-    for (int k = 0; k < 3; ++k) {
-      if (scale[k] == 0.f) continue;
-      auto const& bk = binning.axis[k];
+    int best_axis = -1, best_plane = 0;
+    float all_area = 0.f;
+    for (int k = ka; k < kb; ++k) {
+      auto const& bk = binning.box[k];
+      auto const& ck = binning.count[k];
       float right_cost[max_sah_bins];
       uint64_t right_count[max_sah_bins];
-      Box3 r;
+      F4 lo = F4::splat(inf_f), hi = F4::splat(-inf_f);
       uint64_t nr = 0;
       for (int j = nb - 1; j > 0; --j) {
-        r.grow(bk[j].lo, bk[j].hi);
-        nr += bk[j].count;
-        right_cost[j] = r.half_area() * float(nr);
+        lo = min(F4::load(bk[j].v), lo);
+        hi = max(F4::load(bk[j].v + 4), hi);
+        nr += ck[j];
+        right_cost[j] = half_area(lo, hi) * float(nr);
         right_count[j] = nr;
       }
-      Box3 l;
+      if (k == wide) all_area = half_area(min(F4::load(bk[0].v), lo), max(F4::load(bk[0].v + 4), hi));
+      if (map.scale[k] == 0.f) continue;
+      lo = F4::splat(inf_f), hi = F4::splat(-inf_f);
       uint64_t nl = 0;
       for (int p = 1; p < nb; ++p) {  // plane p: bins [0, p) left, [p, nb) right
-        l.grow(bk[p - 1].lo, bk[p - 1].hi);
-        nl += bk[p - 1].count;
+        lo = min(F4::load(bk[p - 1].v), lo);
+        hi = max(F4::load(bk[p - 1].v + 4), hi);
+        nl += ck[p - 1];
         if (nl == 0 || right_count[p] == 0) continue;
-        float const cost = l.half_area() * float(nl) + right_cost[p];
+        float const cost = half_area(lo, hi) * float(nl) + right_cost[p];
         if (cost < best) best = cost, best_axis = k, best_plane = p;
       }
     }
-    if (best_axis < 0) return n <= max_leaf ? leaf : object_median_split(boxes, items, b, e, wide);
+    if (best_axis < 0) return n <= max_leaf ? leaf : object_median_split(slots, b, e, wide);
     if (n <= max_leaf) {
-      float const a = all.half_area();
+      float const a = all_area;
       float const split_cost = costs.traversal + costs.item * (a > 0.f ? best / a : float(n));
       if (!(split_cost < costs.item * float(n))) return leaf;
     }
     int const k = best_axis;
-    float const lo = cb.lo[k], sc = scale[k];
-    return partition_items(boxes, items, scratch, b, e, [k, lo, sc, nb, best_plane](float const* c) {
-      return bin_of(c[k], lo, sc, nb) < best_plane;
-    });
+    return partition_slots(slots, b, e, [k, &map, best_plane](float const* c) { return map.bin(c[k], k) < best_plane; });
   }
 };
 
