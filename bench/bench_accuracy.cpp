@@ -256,12 +256,14 @@ void sweep_dvr(Subject const& s, Settings const& st, std::vector<Row>& rows) {
     for (DvrMode m : {DvrMode::samples, DvrMode::segments})
       for (bool ess : {true, false}) cfgs.push_back({div, 16, m, ess, best, Traversal::packet});
   for (int g : {1, 4, 8, 32}) cfgs.push_back({500, g, DvrMode::samples, true, best, Traversal::packet});
-  for (Isa isa : isas_here())
-    for (Traversal tr : {Traversal::packet, Traversal::spmd, Traversal::hybrid})
-      if (!(isa == best && tr == Traversal::packet)) cfgs.push_back({500, 16, DvrMode::samples, true, isa, tr});
-  if (st.full)
+  // Speed knobs in the default mode (cell segments); both modes with --full.
+  DvrParams const def;
+  for (DvrMode m : {DvrMode::segments, DvrMode::samples}) {
+    if (m != def.mode && !st.full) continue;
     for (Isa isa : isas_here())
-      for (Traversal tr : {Traversal::spmd, Traversal::hybrid}) cfgs.push_back({500, 16, DvrMode::segments, true, isa, tr});
+      for (Traversal tr : {Traversal::packet, Traversal::spmd, Traversal::hybrid})
+        if (!(isa == best && tr == Traversal::packet)) cfgs.push_back({500, 16, m, true, isa, tr});
+  }
   for (Cfg const& c : cfgs) {
     DvrParams q = p;
     q.step = s.diagonal() / float(c.step_div);
@@ -281,8 +283,10 @@ void sweep_dvr(Subject const& s, Settings const& st, std::vector<Row>& rows) {
     r.dvr_mode = c.mode == DvrMode::samples ? "samples" : "segments";
     r.config = r.dvr_mode + "/d" + std::to_string(c.step_div) + "/g" + std::to_string(c.group) + (c.ess ? "/ess" : "/noess") +
                "/" + r.isa + "/" + r.traversal;
-    r.is_default = c.step_div == 500 && c.group == 16 && c.mode == DvrMode::samples && c.ess && c.isa == best &&
-                   c.tr == Traversal::packet;
+    // cellray-render's default: the library's DvrParams defaults (step 0 =
+    // diagonal / 500), best ISA, packet traversal.
+    r.is_default = c.step_div == 500 && c.group == def.group_size && c.mode == def.mode &&
+                   c.ess == def.empty_space_skipping && c.isa == best && c.tr == Traversal::packet;
     r.mrays = double(cam.width) * cam.height / sec / 1e6;
     r.rmse = d.rmse, r.max = d.max, r.pct_over = 100 * d.frac_over;
     rows.push_back(r);

@@ -316,7 +316,8 @@ struct Options {
   std::string builder = "binned_sah";
   int leaf_size = 7;
   int group_size = 16;
-  std::string dvr_mode = "samples";
+  std::string dvr_mode = "segments";
+  bool dvr_shading = false;
   bool no_skip = false;
   int neubauer = 0;
   bool central_normals = false;
@@ -371,11 +372,17 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--unit-distance", o.unit_distance,
                  "DVR opacity unit distance, world units (default: scene diagonal / 10)")
       ->check(CLI::PositiveNumber);
-  app.add_option("--step", o.step, "DVR sample step, world units (default: scene diagonal / 500)")
+  app.add_option("--step", o.step,
+                 "DVR step, world units: sample spacing, or the longest integration piece of a cell segment "
+                 "(default: scene diagonal / 500)")
       ->check(CLI::PositiveNumber);
-  app.add_option("--dvr-mode", o.dvr_mode, "DVR point samples or exact cell segments")
+  app.add_option("--dvr-mode", o.dvr_mode,
+                 "DVR by exact cell segments (default: faster and more accurate, docs/accuracy.md) or point samples")
       ->check(CLI::IsMember({"samples", "segments"}))
       ->capture_default_str();
+  app.add_flag("--dvr-shading", o.dvr_shading,
+               "DVR gradient shading: headlight Lambert + Blinn-Phong from the scalar gradient, fading out where the "
+               "field is flat");
   app.add_option("--group-size", o.group_size, "DVR samples per ray per traversal")
       ->check(CLI::Range(1, 32))
       ->capture_default_str();
@@ -743,6 +750,7 @@ int run(Options const& o) {
     dp.group_size = o.group_size;
     dp.mode = o.dvr_mode == "segments" ? DvrMode::segments : DvrMode::samples;
     dp.empty_space_skipping = !o.no_skip;
+    dp.shading.enabled = o.dvr_shading;
     // Volumes read best on a dark background (ParaView's choice too).
     dp.background = background.value_or(glm::vec4(0.08f, 0.08f, 0.1f, 1.f));
   }
@@ -774,6 +782,11 @@ int run(Options const& o) {
     nlohmann::ordered_json j;
     j["file"] = o.mesh_path.empty() ? std::string() : o.mesh_path;
     j["mode"] = o.mode;
+    if (o.mode == "dvr") {
+      j["dvr_mode"] = o.dvr_mode;
+      j["dvr_step"] = dp.step > 0.f ? dp.step : diagonal / 500.f;
+      j["dvr_shading"] = o.dvr_shading;
+    }
     j["array"] = array;
     j["cells"] = l.cells();
     j["vertices"] = l.vertices();

@@ -26,12 +26,15 @@
 //   emission-absorption equations with the extinction
 //   sigma(v) = -ln(1 - a(v)) / unit_distance (the continuous limit of the
 //   fast path's 1 - (1 - a)^(step / unit)). Early termination stops exactly
-//   where the accumulated opacity reaches DvrParams::termination (the limit
-//   of the fast path's "stop after the sample that crosses it").
+//   where the accumulated opacity reaches DvrParams::termination (the fast
+//   path counts the step that crosses it only up to there, too).
 //   Tolerance: the error estimate of each accepted interval is at most
 //   `dvr_tolerance` x (interval length / scene diagonal), so a pixel's
 //   estimated error is below `dvr_tolerance` (colour and opacity in [0, 1]);
 //   tests/test_render_reference.cpp checks it by halving the tolerance.
+// * DVR gradient shading (DvrShading): the same formula as the fast path,
+//   with the exact gradient at every quadrature point (tet: constant; hex:
+//   J^-T grad_uvw at the inverted point).
 // NaN values: a cell with any NaN vertex value is invisible (as in the fast
 // path). Degenerate (zero-volume) cells clip to nothing.
 
@@ -536,11 +539,31 @@ inline Gauss6 const& gauss6() {
   return g;
 }
 
-/// Integrates one smooth piece [a, b] (value function `value(t)`) to the
-/// tolerance `tol_per_length` x length (see the file comment).
-template <class Value> struct PieceIntegrator {
-  Value const& value;
-  TfEval const& tf;
+/// DVR gradient shading in double (render.hpp, DvrShading; the same formula
+/// as the fast path's shade_color).
+struct ShadeEval {
+  DvrShading sh;
+  double inv_gradient_full;  ///< render_detail::inverse_gradient_full
+  dvec3 d;                   ///< unit ray direction
+
+  void operator()(dvec3 const& g, double& r, double& gr, double& b) const {
+    double const len = glm::length(g);
+    if (!(len > 0) || !std::isfinite(len)) return;
+    double const ndl = std::min(1.0, std::abs(glm::dot(g, d)) / len);
+    double const m = std::min(1.0, len * inv_gradient_full);
+    double const lit = double(sh.ambient) + double(sh.diffuse) * ndl;
+    double const spec = double(sh.specular) * std::pow(ndl, double(sh.shininess));
+    r += m * (std::min(1.0, r * lit + spec) - r);
+    gr += m * (std::min(1.0, gr * lit + spec) - gr);
+    b += m * (std::min(1.0, b * lit + spec) - b);
+  }
+};
+
+/// Integrates one smooth piece [a, b] to the tolerance `tol_per_length` x
+/// length (see the file comment). `sample(t, r, g, b, sigma)` gives the
+/// (shaded) colour and extinction at t.
+template <class Sample> struct PieceIntegrator {
+  Sample const& sample;
   double tol_per_length;
 
   Piece base(double a, double b) const {
@@ -549,7 +572,7 @@ template <class Value> struct PieceIntegrator {
     double r[6], g[6], bl[6], sg[6];
     bool any = false;
     for (int i = 0; i < 6; ++i) {
-      tf(value(a + G.x[i] * h), r[i], g[i], bl[i], sg[i]);
+      sample(a + G.x[i] * h, r[i], g[i], bl[i], sg[i]);
       any = any || sg[i] > 0;
     }
     Piece p;
@@ -632,6 +655,8 @@ inline void dvr_pixel(Setup const& s, Camera const& cam, DvrParams const& p, Ref
     else run(*part.hexes);
   }
   std::sort(segs.begin(), segs.end(), [](Segment const& a, Segment const& b) { return a.t_in < b.t_in; });
+  bool const shade = p.shading.enabled;
+  ShadeEval const shading{p.shading, double(render_detail::inverse_gradient_full(p, float(s.diagonal))), r.d};
   Accum acc;
   acc.stop_T = 1 - double(p.termination);
   double const tol = o.dvr_tolerance / s.diagonal;
@@ -656,7 +681,12 @@ inline void dvr_pixel(Setup const& s, Camera const& cam, DvrParams const& p, Ref
         if ((v > va && v < vb) || (v < va && v > vb)) cuts.push_back(a + (v - va) / (vb - va) * (b - a));
       }
       std::sort(cuts.begin(), cuts.end());
-      PieceIntegrator<decltype(value)> const integ{value, tf, tol};
+      dvec3 const grad = shade ? ref::gradient(c) : dvec3(0);
+      auto sample = [&](double t, double& cr, double& cg, double& cb, double& sigma) {
+        tf(value(t), cr, cg, cb, sigma);
+        if (shade) shading(grad, cr, cg, cb);
+      };
+      PieceIntegrator<decltype(sample)> const integ{sample, tol};
       for (size_t i = 0; i + 1 < cuts.size(); ++i) add_piece(integ, cuts[i], cuts[i + 1], acc);
     } else {
       ref::Hex const h = ref::load(*part.hexes, sg.cell);
@@ -687,7 +717,16 @@ inline void dvr_pixel(Setup const& s, Camera const& cam, DvrParams const& p, Ref
         tp = t, vp = v;
       }
       std::sort(cuts.begin(), cuts.end());
-      PieceIntegrator<decltype(value)> const integ{value, tf, tol};
+      auto sample = [&](double t, double& cr, double& cg, double& cb, double& sigma) {
+        dvec3 u = hex_guess(k, t);
+        if (!invert(h, r.o + t * r.d, u)) {
+          cr = cg = cb = sigma = 0;  // NaN value: transparent
+          return;
+        }
+        tf(ref::value(h, u), cr, cg, cb, sigma);
+        if (shade) shading(ref::gradient(h, u), cr, cg, cb);
+      };
+      PieceIntegrator<decltype(sample)> const integ{sample, tol};
       for (size_t i = 0; i + 1 < cuts.size(); ++i) add_piece(integ, cuts[i], cuts[i + 1], acc);
     }
   }

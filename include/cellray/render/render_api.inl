@@ -138,6 +138,21 @@ template <class F> void for_tiles(Camera const& cam, int tile_size, F const& f) 
   });
 }
 
+/// DVR shading: 1 / DvrShading::gradient_full after its default (the
+/// transfer function's value span / scene diagonal); +inf when that is 0
+/// (shading then applies in full wherever the gradient is nonzero).
+/// @throws InvalidArgument for negative or non-finite shading parameters.
+inline float inverse_gradient_full(DvrParams const& p, float diagonal) {
+  DvrShading const& sh = p.shading;
+  if (!sh.enabled) return 0.f;
+  for (float x : {sh.ambient, sh.diffuse, sh.specular, sh.shininess, sh.gradient_full})
+    if (!(x >= 0.f) || !std::isfinite(x))
+      throw InvalidArgument("DVR shading parameters must be finite and non-negative");
+  float const span = p.tf.values.back() - p.tf.values.front();
+  float const full = sh.gradient_full > 0.f ? sh.gradient_full : span / diagonal;
+  return full > 0.f && std::isfinite(full) ? 1.f / full : std::numeric_limits<float>::infinity();
+}
+
 struct DvrSetup {
   PreparedScene scene;
   PreparedTf table;
@@ -156,6 +171,7 @@ inline void prepare_dvr(Scene const& scene, DvrParams const& p, DvrSetup& out) {
   out.scene.windows = p.empty_space_skipping ? opacity_windows(p.tf) : ValueWindows{};
   out.table = tf_table(p.tf, step);
   out.scene.tf = &out.table;
+  out.scene.inv_gradient_full = inverse_gradient_full(p, out.scene.diagonal);
 }
 
 }  // namespace render_detail

@@ -36,6 +36,7 @@ struct PreparedScene {
   float step = 0.f;            ///< DVR sample spacing (world units)
   ValueWindows windows;        ///< DVR: values with nonzero opacity (everything without skipping)
   PreparedTf const* tf = nullptr;
+  float inv_gradient_full = 0.f;  ///< DVR shading: 1 / DvrShading::gradient_full after defaults
 };
 
 }  // namespace cellray

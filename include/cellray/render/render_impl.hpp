@@ -266,24 +266,59 @@ template <class A> inline vfloat<A> scene_exit(RayPacket<A> const& r, PreparedSc
   return simd::min(simd::min(simd::max(ax, bx), simd::max(ay, by)), simd::max(az, bz));
 }
 
-/// A segment in a lane's list (a type of this ISA unit, so the containers
-/// instantiated for it are too: see the ODR rule in dispatch.hpp).
-struct LaneSegment {
-  CellSegment s;
-};
+/// DVR gradient shading of one colour (render.hpp, DvrShading), scalar:
+/// `g` the field gradient, `d` the unit ray direction.
+inline void shade_color(DvrShading const& sh, float inv_gradient_full, float const g[3], glm::vec3 const& d,
+                        float& r, float& gr, float& b) {
+  float const gg = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+  float const len = std::sqrt(gg);
+  if (!(len > 0.f) || !(len < std::numeric_limits<float>::infinity())) return;
+  float const ndl = std::min(1.f, std::fabs(g[0] * d.x + g[1] * d.y + g[2] * d.z) / len);
+  float const m = std::min(1.f, len * inv_gradient_full);
+  float const lit = sh.ambient + sh.diffuse * ndl, spec = sh.specular * std::pow(ndl, sh.shininess);
+  r += m * (std::min(1.f, r * lit + spec) - r);
+  gr += m * (std::min(1.f, gr * lit + spec) - gr);
+  b += m * (std::min(1.f, b * lit + spec) - b);
+}
+
+template <class A> inline vfloat<A> pow_batch(vfloat<A> const& x, float e) {
+  if constexpr (std::is_same_v<A, scalar>) return std::pow(x, e);
+  else return xsimd::pow(x, vfloat<A>(e));
+}
+
+/// The same shading per lane (SIMD): `gx, gy, gz` the gradient, `r` the rays.
+template <class A>
+inline void shade_batch(DvrShading const& sh, float inv_gradient_full, vfloat<A> const& gx, vfloat<A> const& gy,
+                        vfloat<A> const& gz, RayPacket<A> const& r, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb) {
+  vfloat<A> const zero(0.f), one(1.f);
+  vfloat<A> const len = simd::sqrt(gx * gx + gy * gy + gz * gz);
+  vmask<A> const ok = len > zero && len < vfloat<A>(std::numeric_limits<float>::infinity());  // false for NaN
+  if (simd::none(ok)) return;
+  vfloat<A> const safe = simd::select(ok, len, one);
+  vfloat<A> const ndl = simd::min(one, simd::abs(gx * r.dx + gy * r.dy + gz * r.dz) / safe);
+  vfloat<A> const m = simd::select(ok, simd::min(one, len * vfloat<A>(inv_gradient_full)), zero);
+  vfloat<A> const lit = vfloat<A>(sh.ambient) + vfloat<A>(sh.diffuse) * ndl;
+  vfloat<A> const spec = vfloat<A>(sh.specular) * pow_batch<A>(ndl, sh.shininess);
+  cr = cr + m * (simd::min(one, cr * lit + spec) - cr);
+  cg = cg + m * (simd::min(one, cg * lit + spec) - cg);
+  cb = cb + m * (simd::min(one, cb * lit + spec) - cb);
+}
 
 /// Cell-segment DVR: the cells each ray crosses, window by window, each
 /// segment integrated in pieces of at most `step` with the exact transfer
-/// function (midpoint rule). The value is linear along a segment: exact in
-/// tets, the chord between entry and exit values in hexes.
+/// function at each piece's midpoint (midpoint rule). The field along a
+/// segment comes from segments.hpp: exact-linear in tets, the cubic through
+/// four on-ray values in hexes.
 template <class A>
 void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> const& inside,
                         vfloat<A> const& t_enter, vfloat<A> const& t_exit, DvrParams const& p, Traversal how,
                         int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca) {
   constexpr int W = width<A>;
   TransferFunction const& tf = *s.tf->tf;
+  bool const shade = p.shading.enabled;
   float const window = s.step * float(p.group_size);
   auto const enter = simd::to_array<A>(t_enter), exit_t = simd::to_array<A>(t_exit);
+  auto const dx = simd::to_array<A>(r.dx), dy = simd::to_array<A>(r.dy), dz = simd::to_array<A>(r.dz);
   float col[W][3] = {}, alpha[W] = {}, t_cur[W];
   uint32_t live = simd::movemask(inside);
   for (int l = 0; l < W; ++l) t_cur[l] = enter[l];
@@ -294,15 +329,15 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
     vmask<A> const act = simd::mask_from_bits<A>(live);
     float end[W];
     for (int l = 0; l < W; ++l) end[l] = std::min(hi_a[l], exit_t[l]);
-    std::vector<LaneSegment> lane_segs[W];
+    std::vector<FieldSegment> lane_segs[W];
     for (PreparedPart const& part : s.parts) {
       auto run = [&](auto const& mesh) {
         constexpr int N = std::decay_t<decltype(mesh)>::corners;
-        auto q = std::make_unique<SegmentQuery<A, N>>(part.tree, mesh, r, s.windows, lo, hi);
+        auto q = std::make_unique<SegmentQuery<A, N>>(part.tree, mesh, r, s.windows, lo, hi, shade);
         collect_segments(*q, act, how, threshold);
         for (int l = 0; l < W; ++l) {
           end[l] = std::min(end[l], q->cut[l]);
-          for (int i = 0; i < q->count[l]; ++i) lane_segs[l].push_back(LaneSegment{q->seg[l][i]});
+          lane_segs[l].insert(lane_segs[l].end(), q->seg[l], q->seg[l] + q->count[l]);
         }
       };
       if (part.tets) run(*part.tets);
@@ -312,22 +347,26 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
     for (uint32_t b = live; b; b &= b - 1) {
       int const l = __builtin_ctz(b);
       auto& segs = lane_segs[l];
-      std::sort(segs.begin(), segs.end(), [](LaneSegment const& x, LaneSegment const& y) { return x.s.t_in < y.s.t_in; });
+      std::sort(segs.begin(), segs.end(), [](FieldSegment const& x, FieldSegment const& y) { return x.s.t_in < y.s.t_in; });
+      glm::vec3 const dir(dx[size_t(l)], dy[size_t(l)], dz[size_t(l)]);
       float prev = t_cur[l];
-      for (LaneSegment const& rec : segs) {
-        CellSegment const& sg = rec.s;
+      for (FieldSegment const& fs : segs) {
+        CellSegment const& sg = fs.s;
         float const a = std::max(sg.t_in, prev), e = std::min(sg.t_out, end[l]);
         if (!(e > a)) continue;
-        float const len = sg.t_out - sg.t_in;
         int const pieces = std::max(1, int(std::ceil((e - a) / s.step)));
         float const d = (e - a) / float(pieces);
         for (int i = 0; i < pieces && alpha[l] < p.termination; ++i) {
-          float const tm = a + (float(i) + 0.5f) * d;
-          float const v = len > 0.f ? sg.v_in + (tm - sg.t_in) / len * (sg.v_out - sg.v_in) : sg.v_in;
-          glm::vec4 const c = tf(v);
+          float const lam = fs.lambda(a + (float(i) + 0.5f) * d);
+          glm::vec4 c = tf(fs.value_at(lam));
           if (!(c.a > 0.f)) continue;
+          if (shade) {
+            float g[3];
+            fs.gradient_at(lam, g);
+            shade_color(p.shading, s.inv_gradient_full, g, dir, c.r, c.g, c.b);
+          }
           float const ad = 1.f - std::pow(1.f - std::min(c.a, 0.999999f), d / tf.unit_distance);
-          float const w = (1.f - alpha[l]) * ad;
+          float const w = std::min((1.f - alpha[l]) * ad, p.termination - alpha[l]);  // exact termination
           col[l][0] += w * c.r, col[l][1] += w * c.g, col[l][2] += w * c.b;
           alpha[l] += w;
         }
@@ -343,15 +382,118 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
   cr = simd::load<A>(o[0]), cg = simd::load<A>(o[1]), cb = simd::load<A>(o[2]), ca = simd::load<A>(o[3]);
 }
 
+/// Point-sampled DVR (Rathke 2015 §7): samples at t_enter + (k + 1/2) step,
+/// located in groups of G through the BVH. Each sample stands for the step
+/// around it; where the next (previous) sample is outside the visible mesh
+/// (outside every cell, in a NaN cell, past the scene's exit), the step is
+/// clipped at the exit (entry) of the sample's own cell, so a ray's first and
+/// last steps count only their part inside the mesh: without this the error
+/// is first order in the step (a boundary step counts in full or not at all),
+/// with it the midpoint rule's second order. A sample is therefore
+/// composited one sample late, when its successor's validity is known.
+template <class A>
+void integrate_samples(PreparedScene const& s, RayPacket<A> const& r, vmask<A> const& inside,
+                       vfloat<A> const& t_enter, vfloat<A> const& t_exit, DvrParams const& p, Traversal how,
+                       int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca) {
+  constexpr int W = width<A>;
+  constexpr float nan = std::numeric_limits<float>::quiet_NaN();
+  PreparedTf const& ptf = *s.tf;
+  TfTable<A> const table{ptf.r.data(), ptf.g.data(), ptf.b.data(), ptf.a.data(), int(ptf.r.size()), ptf.lo, ptf.scale};
+  float const step = s.step, half = 0.5f * step;
+  int const G = p.group_size;
+  bool const shade = p.shading.enabled;
+  vfloat<A> const term(p.termination), one(1.f);
+  // The pending sample per lane: colour, opacity for a full step, its t, the
+  // left end of its step when clipped, its cell's exit.
+  vmask<A> pend(false), pend_left_clip(false), prev_valid(false);
+  vfloat<A> pr(0.f), pg(0.f), pb(0.f), pa(0.f), pt(0.f), pleft(0.f), pout(0.f);
+  // Composites the pending samples of `lanes`; `right_clip`: their successor
+  // is invalid, so their step ends at their cell's exit.
+  auto composite = [&](vmask<A> const& lanes, vmask<A> const& right_clip) {
+    vfloat<A> a = pa;
+    vmask<A> const clipped = lanes && (pend_left_clip || right_clip);
+    if (simd::any(clipped)) {
+      // Rare (mesh entry and exit): a' = 1 - (1 - a)^(length / step) per lane.
+      vfloat<A> const right = simd::min(simd::max(pout, pt), pt + vfloat<A>(step));
+      vfloat<A> const len = simd::select(pend_left_clip, pt - pleft, vfloat<A>(half)) +
+                            simd::select(right_clip, right - pt, vfloat<A>(half));
+      auto const aa = simd::to_array<A>(a), ll = simd::to_array<A>(len);
+      alignas(64) float out[W];
+      uint32_t const cb_bits = simd::movemask(clipped);
+      for (int l = 0; l < W; ++l)
+        out[l] = (cb_bits >> l) & 1u ? 1.f - std::pow(1.f - aa[size_t(l)], ll[size_t(l)] / step) : aa[size_t(l)];
+      a = simd::load<A>(out);
+    }
+    // Early termination exactly at `termination`: the sample that crosses it
+    // counts only up to there (its colour is constant over its step), as in
+    // the reference. Counting it in full is an error of first order in the step.
+    vfloat<A> const w = simd::select(lanes, simd::min((one - ca) * a, simd::max(term - ca, vfloat<A>(0.f))), vfloat<A>(0.f));
+    cr = cr + w * pr, cg = cg + w * pg, cb = cb + w * pb, ca = ca + w;
+  };
+  vfloat<A> t0 = t_enter + vfloat<A>(half);
+  vmask<A> active = inside && t0 <= t_exit;
+  while (simd::any(active)) {
+    alignas(64) float values[max_sample_group][W], cin[max_sample_group][W], cout[max_sample_group][W];
+    alignas(64) float grad[3][max_sample_group][W];
+    for (int g = 0; g < G; ++g)
+      for (int l = 0; l < W; ++l) {
+        values[g][l] = nan, cin[g][l] = cout[g][l] = 0.f;
+        if (shade) grad[0][g][l] = grad[1][g][l] = grad[2][g][l] = 0.f;
+      }
+    for (PreparedPart const& part : s.parts) {
+      auto run = [&](auto const& mesh) {
+        constexpr int N = std::decay_t<decltype(mesh)>::corners;
+        SampleQuery<A, N> q(part.tree, mesh, r, s.windows, t0, step, G, active);
+        q.want_interval = true;
+        q.want_gradient = shade;
+        sample_group(q, active, how, threshold);
+        for (int g = 0; g < G; ++g)
+          for (int l = 0; l < W; ++l) {
+            if (values[g][l] == values[g][l] || q.values[g][l] != q.values[g][l]) continue;
+            values[g][l] = q.values[g][l], cin[g][l] = q.cell_in[g][l], cout[g][l] = q.cell_out[g][l];
+            if (shade) grad[0][g][l] = q.grad[0][g][l], grad[1][g][l] = q.grad[1][g][l], grad[2][g][l] = q.grad[2][g][l];
+          }
+      };
+      if (part.tets) run(*part.tets);
+      else run(*part.hexes);
+    }
+    for (int g = 0; g < G; ++g) {
+      vfloat<A> const t = t0 + vfloat<A>(step * float(g));
+      vmask<A> const in_range = active && t <= t_exit;
+      vmask<A> const finish = active && pend;
+      if (simd::none(in_range) && simd::none(finish)) break;
+      vfloat<A> const v = simd::load<A>(values[g]);
+      vmask<A> const valid = in_range && !simd::isnan(v);
+      if (simd::any(finish)) composite(finish, !valid);
+      pend = pend && !finish;
+      vmask<A> const take = valid && ca < term;
+      if (simd::any(take)) {
+        vfloat<A> sr, sg, sb, sa;
+        table.lookup(v, sr, sg, sb, sa);
+        if (shade)
+          shade_batch<A>(p.shading, s.inv_gradient_full, simd::load<A>(grad[0][g]), simd::load<A>(grad[1][g]),
+                         simd::load<A>(grad[2][g]), r, sr, sg, sb);
+        vfloat<A> const c_in = simd::select(valid, simd::load<A>(cin[g]), t);
+        vfloat<A> const c_out = simd::select(valid, simd::load<A>(cout[g]), t);
+        pr = simd::select(take, sr, pr), pg = simd::select(take, sg, pg), pb = simd::select(take, sb, pb);
+        pa = simd::select(take, sa, pa), pt = simd::select(take, t, pt), pout = simd::select(take, c_out, pout);
+        pleft = simd::select(take, simd::max(simd::min(c_in, t), t - vfloat<A>(step)), pleft);
+        pend_left_clip = (take && !prev_valid) || (!take && pend_left_clip);
+        pend = pend || take;
+      }
+      prev_valid = (active && valid) || (!active && prev_valid);
+    }
+    t0 = t0 + vfloat<A>(step * float(G));
+    active = active && t0 <= t_exit && ca < term;
+  }
+  if (simd::any(pend)) composite(pend, pend);
+}
+
 template <class A>
 void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const& p, RenderOptions const& o,
                      Tile const& tile, Image& out) {
   constexpr int W = width<A>;
   int const threshold = o.hybrid_threshold > 0 ? o.hybrid_threshold : std::max(1, W / 4);
-  PreparedTf const& ptf = *s.tf;
-  TfTable<A> const table{ptf.r.data(), ptf.g.data(), ptf.b.data(), ptf.a.data(), int(ptf.r.size()), ptf.lo, ptf.scale};
-  float const step = s.step;
-  int const G = p.group_size;
   for (int by = tile.y0; by < tile.y0 + tile.h; by += block_h<A>)
     for (int bx = tile.x0; bx < tile.x0 + tile.w; bx += block_w<A>) {
       int px[W], py[W];
@@ -365,41 +507,10 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
                         box_hit(r, &s.lo.x, &s.hi.x, vfloat<A>(0.f), vfloat<A>(std::numeric_limits<float>::max()), t_enter);
       vfloat<A> const t_exit = scene_exit(r, s);
       vfloat<A> cr(0.f), cg(0.f), cb(0.f), ca(0.f);
-      if (p.mode == DvrMode::samples) {
-        // Samples sit at t = (k + 0.5) * step from the entry point.
-        vfloat<A> t0 = t_enter + vfloat<A>(0.5f * step);
-        vmask<A> active = inside && t0 <= t_exit;
-        while (simd::any(active)) {
-          alignas(64) float values[max_sample_group][W];
-          for (int g = 0; g < G; ++g)
-            for (int l = 0; l < W; ++l) values[g][l] = std::numeric_limits<float>::quiet_NaN();
-          for (PreparedPart const& part : s.parts) {
-            auto run = [&](auto const& mesh) {
-              constexpr int N = std::decay_t<decltype(mesh)>::corners;
-              SampleQuery<A, N> q(part.tree, mesh, r, s.windows, t0, step, G, active);
-              sample_group(q, active, o.traversal, threshold);
-              for (int g = 0; g < G; ++g)
-                for (int l = 0; l < W; ++l)
-                  if (values[g][l] != values[g][l]) values[g][l] = q.values[g][l];
-            };
-            if (part.tets) run(*part.tets);
-            else run(*part.hexes);
-          }
-          for (int g = 0; g < G; ++g) {
-            vfloat<A> const t = t0 + vfloat<A>(step * float(g));
-            vmask<A> const use = active && t <= t_exit && ca < vfloat<A>(p.termination);
-            if (simd::none(use)) break;
-            vfloat<A> sr, sg, sb, sa;
-            table.lookup(simd::load<A>(values[g]), sr, sg, sb, sa);
-            vfloat<A> const w = simd::select(use, (vfloat<A>(1.f) - ca) * sa, vfloat<A>(0.f));
-            cr = cr + w * sr, cg = cg + w * sg, cb = cb + w * sb, ca = ca + w;
-          }
-          t0 = t0 + vfloat<A>(step * float(G));
-          active = active && t0 <= t_exit && ca < vfloat<A>(p.termination);
-        }
-      } else {
+      if (p.mode == DvrMode::samples)
+        integrate_samples<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, cr, cg, cb, ca);
+      else
         integrate_segments<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, cr, cg, cb, ca);
-      }
       auto const ar = simd::to_array<A>(cr), ag = simd::to_array<A>(cg), ab = simd::to_array<A>(cb),
                  aa = simd::to_array<A>(ca);
       for (int l = 0; l < W; ++l) {

@@ -31,6 +31,14 @@ template <class A, int N> struct SampleQuery {
   vfloat<A> t_first, t_last;  ///< search interval (first and last pending sample)
   alignas(64) float values[max_sample_group][W];
   uint32_t pending[max_sample_group];  ///< lanes still looking for sample g
+  /// Optional outputs for a renderer (off by default; set before traversal).
+  /// `want_interval`: the ray's clip interval [cell_in, cell_out] of the cell
+  /// each sample was found in (DVR clips the step at the mesh boundary with
+  /// it); `want_gradient`: the analytic world-space gradient there (tets:
+  /// constant; hexes: J^-T grad_uvw at the located coordinates).
+  bool want_interval = false, want_gradient = false;
+  alignas(64) float cell_in[max_sample_group][W], cell_out[max_sample_group][W];
+  alignas(64) float grad[3][max_sample_group][W];
 
   SampleQuery(TreeView const& t, CellMesh<N> const& m, RayPacket<A> const& rays, ValueWindows const& w,
               vfloat<A> const& first_t, float s, int g, vmask<A> const& active)
@@ -63,9 +71,11 @@ template <class A, int N> struct SampleQuery {
     using Ops = CellOps<A, N>;
     m = m && !has_nan_value(c);
     vfloat<A> t_in(-std::numeric_limits<float>::infinity()), t_out(std::numeric_limits<float>::infinity());
-    if (group > 1) {
+    vfloat<A> clip_in = t_in, clip_out = t_out;
+    if (group > 1 || want_interval) {
       typename Ops::Clip const k = Ops::clip(ray_batch(r), c);
       vfloat<A> const margin = vfloat<A>(1e-4f) * simd::abs(k.t_out - k.t_in) + vfloat<A>(1e-30f);
+      clip_in = k.t_in, clip_out = k.t_out;
       t_in = k.t_in - margin;
       t_out = k.t_out + margin;
       m = m && k.hit && t_out >= t_first && t_in <= t_last;
@@ -84,7 +94,20 @@ template <class A, int N> struct SampleQuery {
       simd::store(v, loc.value);
       for (uint32_t b = found; b; b &= b - 1) values[g][__builtin_ctz(b)] = v[__builtin_ctz(b)];
       pending[g] &= ~found;
+      if (want_interval) store_lanes(found, clip_in, cell_in[g]), store_lanes(found, clip_out, cell_out[g]);
+      if (want_gradient) {
+        Vec3<A> gr;
+        if constexpr (N == 4) gr = gradient_tet(c);
+        else gr = gradient_hex(c, loc.param);
+        store_lanes(found, gr.x, grad[0][g]), store_lanes(found, gr.y, grad[1][g]), store_lanes(found, gr.z, grad[2][g]);
+      }
     }
+  }
+
+  static void store_lanes(uint32_t lanes, vfloat<A> const& x, float* out) {
+    alignas(64) float tmp[W];
+    simd::store(tmp, x);
+    for (uint32_t b = lanes; b; b &= b - 1) out[__builtin_ctz(b)] = tmp[__builtin_ctz(b)];
   }
 
   void leaf(uint64_t first, uint32_t count, vmask<A> const& m) {
