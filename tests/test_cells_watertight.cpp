@@ -1,16 +1,21 @@
-// Watertightness: rays aimed exactly at shared faces, edges and vertices of
-// generated and real meshes. Brute force over all cells (no BVH): clip
-// intervals must chain without gaps or overlaps, sample points must lie in
-// exactly one cell, iso crossings must be found once.
+// Watertightness: rays aimed exactly at shared faces, interior edges and
+// interior vertices of generated and real meshes. Brute force over all cells
+// (no BVH): clip intervals must chain without gaps or overlaps, sample points
+// must lie in exactly one cell, and the iso crossing placed at the aimed
+// point (isovalue = the field there) must be found exactly once.
 
 #include <catch2/catch.hpp>
 
+#include <sys/mman.h>
+
 #include <algorithm>
 #include <array>
-#include <cstdlib>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <cellray/io/read_mesh.hpp>
@@ -28,7 +33,7 @@ namespace {
 
 struct Stats {
   int rays = 0, samples = 0, gaps = 0, doubles = 0, chain_gaps = 0, chain_overlaps = 0;
-  int ref_crossings = 0, lost = 0, duplicated = 0;
+  int aimed = 0, lost = 0, duplicated = 0, tangent_pairs = 0, excluded = 0, hull = 0;
   double max_gap = 0, max_overlap = 0;
 };
 
@@ -43,59 +48,135 @@ template <int N> struct Boxes {
   }
 };
 
+/// Corner lists of the faces and edges of a tet (N = 4) or VTK hex (N = 8).
+template <int N> struct CellShape;
+template <> struct CellShape<4> {
+  static constexpr int faces = 4, face_size = 3, edges = 6;
+  static constexpr int face[4][4] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+  static constexpr int edge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+};
+template <> struct CellShape<8> {
+  static constexpr int faces = 6, face_size = 4, edges = 12;
+  static constexpr int face[6][4] = {{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 5, 4}, {3, 2, 6, 7}, {0, 3, 7, 4}, {1, 2, 6, 5}};
+  static constexpr int edge[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
+                                      {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+};
+
+/// Which faces are shared by two cells, and which edges and vertices lie on
+/// the mesh boundary: rays are aimed at interior features only, where a
+/// crossing has a cell on both sides (at the boundary, "before the mesh" has
+/// no value and a crossing at the boundary face is legitimately either side).
+template <int N> struct Topology {
+  using S = CellShape<N>;
+  std::map<std::vector<uint64_t>, int> face_count;
+  std::set<std::pair<uint64_t, uint64_t>> boundary_edges;
+  std::set<uint64_t> boundary_vertices;
+  std::vector<uint64_t> face_key(CellMesh<N> const& m, uint64_t c, int f) const {
+    std::vector<uint64_t> k;
+    for (int i = 0; i < S::face_size; ++i) k.push_back(m.vertex(c, S::face[f][i]));
+    std::sort(k.begin(), k.end());
+    return k;
+  }
+  explicit Topology(CellMesh<N> const& m) {
+    for (uint64_t c = 0; c < m.cell_count(); ++c)
+      for (int f = 0; f < S::faces; ++f) ++face_count[face_key(m, c, f)];
+    for (uint64_t c = 0; c < m.cell_count(); ++c)
+      for (int f = 0; f < S::faces; ++f) {
+        if (face_count[face_key(m, c, f)] != 1) continue;
+        for (int i = 0; i < S::face_size; ++i) {
+          uint64_t const a = m.vertex(c, S::face[f][i]), b = m.vertex(c, S::face[f][(i + 1) % S::face_size]);
+          boundary_vertices.insert(a);
+          boundary_edges.insert({std::min(a, b), std::max(a, b)});
+        }
+      }
+  }
+  bool shared_face(CellMesh<N> const& m, uint64_t c, int f) const { return face_count.at(face_key(m, c, f)) == 2; }
+  bool interior_edge(uint64_t a, uint64_t b) const { return !boundary_edges.count({std::min(a, b), std::max(a, b)}); }
+  bool interior_vertex(uint64_t v) const { return !boundary_vertices.count(v); }
+};
+
+/// A point on a random interior face (kind 0), edge (1) or vertex (2) of a
+/// random cell, and the field there in double.
+template <int N>
+void aim(Rng& rng, CellMesh<N> const& m, Topology<N> const& topo, int kind, glm::dvec3& target, double& value) {
+  using S = CellShape<N>;
+  for (;;) {
+    uint64_t const c = rng.next() % m.cell_count();
+    ref::Cell<N> const cell = ref::load(m, c);
+    if (kind == 0) {
+      int const f = int(rng.next() % S::faces);
+      if (!topo.shared_face(m, c, f)) continue;
+      int const* v = S::face[f];
+      double a = rng.uniform(0.05, 0.95), b = rng.uniform(0.05, 0.95);
+      if (N == 4) {
+        if (a + b > 1) a = 1 - a, b = 1 - b;
+        target = cell.p[v[0]] + a * (cell.p[v[1]] - cell.p[v[0]]) + b * (cell.p[v[2]] - cell.p[v[0]]);
+        value = cell.s[v[0]] + a * (cell.s[v[1]] - cell.s[v[0]]) + b * (cell.s[v[2]] - cell.s[v[0]]);
+      } else {
+        auto bl = [&](auto const* q) { return (1 - b) * ((1 - a) * q[v[0]] + a * q[v[1]]) + b * ((1 - a) * q[v[3]] + a * q[v[2]]); };
+        target = bl(cell.p), value = bl(cell.s);
+      }
+      return;
+    }
+    if (kind == 1) {
+      int const* e = S::edge[rng.next() % S::edges];
+      if (!topo.interior_edge(cell.id[e[0]], cell.id[e[1]])) continue;
+      double const a = rng.uniform(0.05, 0.95);
+      target = cell.p[e[0]] + a * (cell.p[e[1]] - cell.p[e[0]]);
+      value = cell.s[e[0]] + a * (cell.s[e[1]] - cell.s[e[0]]);
+      return;
+    }
+    int const i = int(rng.next() % N);
+    if (!topo.interior_vertex(cell.id[i])) continue;
+    target = cell.p[i], value = cell.s[i];
+    return;
+  }
+}
+
 /// `convex`: the mesh fills a convex domain, so any hole along a ray inside
 /// the hull of the hit intervals is a watertightness failure; otherwise only
 /// holes shorter than 1e-4 of the ray's span count (longer ones are the
 /// mesh's own concave boundary).
+///
+/// Iso crossings: the ray is aimed at point P (t = 3) with the isovalue
+/// equal to the field at P, so a crossing sits exactly on the shared face,
+/// edge or vertex. Counted within a window of 1e-4 x the mesh diagonal around
+/// P, in each cell its first crossing: r from the double reference, h from
+/// the float kernel. Crossings along a ray alternate, so r and h must have
+/// the same parity: an odd difference is a crossing lost (h < r) or counted
+/// twice (h > r). An even difference is a tangent pair: the field along the
+/// ray has an extremum at P within rounding of the isovalue (the two cells'
+/// slopes have opposite signs there), the double reference sees the
+/// isovalue touched twice and float not at all, or the reverse; both
+/// answers are consistent, which one is right depends on the last bit of
+/// the face value. Excluded and counted: rays where a cell crosses the
+/// isovalue before the window and its interval reaches P (the per-cell
+/// query returns a cell's first crossing only, so one at P cannot be seen),
+/// and hex rays where P lies strictly inside a cell's interval: the ray
+/// crosses a curved face of that cell twice and its clip interval, the hull
+/// of its patch crossings, covers part of the neighbour (HexClip's
+/// documented limitation); the crossing at P is then seen by both.
 template <int N>
 std::array<Stats, 3> measure(CellRunner const& run, CellMesh<N> const& m, int rays_per_kind, bool convex, uint64_t seed) {
   std::array<Stats, 3> sts;
   Rng rng(seed);
   Boxes<N> const boxes(m);
+  Topology<N> const topo(m);
   uint64_t const nc = m.cell_count();
+  glm::vec3 mlo(1e30f), mhi(-1e30f);
+  for (uint64_t c = 0; c < nc; ++c) mlo = glm::min(mlo, boxes.lo[c]), mhi = glm::max(mhi, boxes.hi[c]);
+  double const window = 1e-4 * glm::length(glm::dvec3(mhi - mlo));
   std::vector<uint32_t> all(nc);
   for (uint64_t c = 0; c < nc; ++c) all[c] = uint32_t(c);
   std::vector<RayQuery> rq(nc);
   std::vector<ClipOut> clip(nc);
   std::vector<IsoOut> iso(nc);
-  static constexpr int tet_faces[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
-  static constexpr int hex_faces[6][4] = {{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 5, 4}, {3, 2, 6, 7}, {0, 3, 7, 4}, {1, 2, 6, 5}};
   for (int kind = 0; kind < 3; ++kind) {  // 0 face, 1 edge, 2 vertex
     Stats& st = sts[size_t(kind)];
     for (int r = 0; r < rays_per_kind; ++r) {
-      uint64_t const c = rng.next() % nc;
-      ref::Cell<N> const cell = ref::load(m, c);
       glm::dvec3 target;
       double iso_value;
-      if (kind == 0) {
-        int const f = int(rng.next() % (N == 4 ? 4 : 6));
-        double a = rng.uniform(0.05, 0.95), b = rng.uniform(0.05, 0.95);
-        if (N == 4) {
-          if (a + b > 1) a = 1 - a, b = 1 - b;
-          int const* v = tet_faces[f];
-          target = cell.p[v[0]] + a * (cell.p[v[1]] - cell.p[v[0]]) + b * (cell.p[v[2]] - cell.p[v[0]]);
-          iso_value = cell.s[v[0]] + a * (cell.s[v[1]] - cell.s[v[0]]) + b * (cell.s[v[2]] - cell.s[v[0]]);
-        } else {
-          int const* v = hex_faces[f % 6];
-          auto bl = [&](auto const* q) {
-            return (1 - b) * ((1 - a) * q[v[0]] + a * q[v[1]]) + b * ((1 - a) * q[v[3]] + a * q[v[2]]);
-          };
-          target = bl(cell.p);
-          iso_value = bl(cell.s);
-        }
-      } else if (kind == 1) {
-        int const i = int(rng.next() % N);
-        int j = N == 4 ? int(rng.next() % 3) : 0;
-        if (N == 4) j = (i + 1 + j) % 4;
-        else j = (i & 4) | ((i & 3) + 1) % 4;  // a bottom or top quad edge
-        double const a = rng.uniform(0.05, 0.95);
-        target = cell.p[i] + a * (cell.p[j] - cell.p[i]);
-        iso_value = cell.s[i] + a * (cell.s[j] - cell.s[i]);
-      } else {
-        int const i = int(rng.next() % N);
-        target = cell.p[i];
-        iso_value = cell.s[i];
-      }
+      aim(rng, m, topo, kind, target, iso_value);
       glm::dvec3 const d = rng.direction();
       RayQuery const q = test::to_query(target - 3.0 * d, d);
       std::fill(rq.begin(), rq.end(), q);
@@ -117,12 +198,6 @@ std::array<Stats, 3> measure(CellRunner const& run, CellMesh<N> const& m, int ra
         // Doubly covered length (a zero-length sliver inside another interval counts as its own length).
         float const overlap = std::min(reach, iv[k].second) - iv[k].first;
         if (overlap > 0) ++st.chain_overlaps, st.max_overlap = std::max(st.max_overlap, double(overlap));
-        if (overlap > 1e-3f && std::getenv("CELLRAY_DEBUG_WT")) {
-          std::printf("overlap %g kind %d at t %g:", double(-gap), kind, double(iv[k].first));
-          for (uint64_t j = 0; j < nc; ++j)
-            if (clip[j].hit && std::abs(clip[j].t_in - iv[k].first) < 1) std::printf(" [%llu %g %g]", (unsigned long long)j, double(clip[j].t_in), double(clip[j].t_out));
-          std::printf("\n");
-        }
         reach = std::max(reach, iv[k].second);
       }
       // Sample points: 32 along the covered span plus the aimed-at point.
@@ -153,46 +228,36 @@ std::array<Stats, 3> measure(CellRunner const& run, CellMesh<N> const& m, int ra
         }
         ++st.samples;
         if (inside > 1) ++st.doubles;
-        if (inside > 1 && std::getenv("CELLRAY_DEBUG_WT") && N == 8) {
-          std::printf("double at (%g %g %g):", double(p.x), double(p.y), double(p.z));
-          for (size_t j = 0; j < cand.size(); ++j)
-            if (lo[j].inside) {
-              ref::Location const rl = ref::locate(ref::load(m, cand[j]), glm::dvec3(p));
-              std::printf(" [%u uvw %g %g %g ref %d %g %g %g]", cand[j], double(lo[j].param[0]), double(lo[j].param[1]), double(lo[j].param[2]), int(rl.inside), rl.param.x, rl.param.y, rl.param.z);
-            }
-          std::printf("\n");
-        }
       }
-      // Iso crossings: the reference's, merged within 1e-6 (double at a shared face).
-      std::vector<double> ref_x;
+      // Iso crossings at the aimed point (see above).
       ref::Ray const rr = test::to_ref(q);
+      int ref_n = 0, fast_n = 0;
+      bool multi = false;
+      bool hull = false;
       for (uint64_t k = 0; k < nc; ++k) {
-        if (!clip[k].hit && !iso[k].hit) {
-          // Cheap reject: the float clip missed; the double one decides.
-          ref::Clip const rc0 = ref::clip(ref::load(m, k), rr);
-          if (!rc0.hit) continue;
-        }
+        if (iso[k].hit && std::abs(iso[k].t - 3.0) < window) ++fast_n;
+        bool const spans = clip[k].hit && clip[k].t_in <= 3.0 + window && clip[k].t_out >= 3.0 - window;
+        if (spans && iso[k].hit && iso[k].t < 3.0 - window) multi = true;
+        hull = hull || (clip[k].hit && clip[k].t_in < 3.0 - window && clip[k].t_out > 3.0 + window);
         ref::Cell<N> const ck = ref::load(m, k);
         ref::Clip const rc = ref::clip(ck, rr);
+        if (!rc.hit || rc.t_in > 3.0 + window || rc.t_out < 3.0 - window) continue;
         std::vector<double> const x = ref::crossings(ck, rr, rc, double(isof[0]));
-        ref_x.insert(ref_x.end(), x.begin(), x.end());
+        if (!x.empty() && std::abs(x.front() - 3.0) < window) ++ref_n;
+        for (size_t j = 1; j < x.size(); ++j) multi = multi || std::abs(x[j] - 3.0) < window;
       }
-      std::sort(ref_x.begin(), ref_x.end());
-      std::vector<double> merged;
-      for (double x : ref_x)
-        if (merged.empty() || x - merged.back() > 1e-6) merged.push_back(x);
-      std::vector<float> hits;
-      for (uint64_t k = 0; k < nc; ++k)
-        if (iso[k].hit) hits.push_back(iso[k].t);
-      std::sort(hits.begin(), hits.end());
-      for (size_t k = 1; k < hits.size(); ++k)
-        if (hits[k] - hits[k - 1] < 1e-5f) ++st.duplicated;
-      st.ref_crossings += int(merged.size());
-      for (double x : merged) {
-        bool found = false;
-        for (float h : hits) found = found || std::abs(h - x) < 1e-4;
-        st.lost += !found;
+      if (hull) {
+        ++st.hull;
+        continue;
       }
+      if (multi) {
+        ++st.excluded;
+        continue;
+      }
+      st.aimed += ref_n % 2;
+      if ((ref_n - fast_n) % 2 == 0) st.tangent_pairs += std::abs(ref_n - fast_n) / 2;
+      else if (fast_n < ref_n) st.lost += ref_n - fast_n;
+      else st.duplicated += fast_n - ref_n;
     }
   }
   return sts;
@@ -203,19 +268,31 @@ void report(char const* name, CellRunner const& run, std::array<Stats, 3> const&
   for (int k = 0; k < 3; ++k) {
   Stats const& s = all[size_t(k)];
   std::printf("watertight %-16s %-6s %-6s: %d rays, %d samples: %d gaps (%.4f%%), %d double (%.4f%%); chain: %d gaps (max "
-              "%.1e), %d overlaps (max %.1e); iso: %d ref crossings, %d lost, %d duplicated\n",
+              "%.1e), %d overlaps (max %.1e); iso at the aimed point: %d crossings, %d lost, %d duplicated, %d tangent "
+              "pairs; rays excluded: %d (a cell crosses twice), %d (hull over a curved face)\n",
               name, kinds[k], run.name().c_str(), s.rays, s.samples, s.gaps, 100.0 * s.gaps / std::max(1, s.samples), s.doubles,
               100.0 * s.doubles / std::max(1, s.samples), s.chain_gaps, s.max_gap, s.chain_overlaps, s.max_overlap,
-              s.ref_crossings, s.lost, s.duplicated);
+              s.aimed, s.lost, s.duplicated, s.tangent_pairs, s.excluded, s.hull);
   }
 }
 
 }  // namespace
 
-// Guarantees by construction hold for rays through face interiors (bit-
-// identical canonical face evaluation). Rays through edges and vertices meet
-// several independently rounded planes/patches there: rates are measured and
-// bounded here at about twice the values seen (see the report).
+// Guarantees by construction hold through face interiors: canonical face
+// evaluation makes a cell's exit bit-identical to its neighbour's entry
+// (tets: plane and face value; hexes: bilinear patch and value), so no gap,
+// no overlap, and no iso crossing lost or doubled. Asserted exactly (0).
+//
+// Rays through edges and vertices leave one cell through one face plane or
+// patch and enter the next through another (or through a cell that touches
+// the ray only at that point, with an interval of rounding length): each
+// plane is evaluated consistently, but different planes through one edge do
+// not meet in exactly one float line. The end values of these near-zero
+// intervals straddle an isovalue equal to the edge/vertex value by rounding,
+// so a crossing exactly at an edge or vertex can be missed (neither cell
+// sees the sign change) or reported by several cells at the same t
+// (harmless for the renderer, which merges layers within 1e-5 x diagonal).
+// Bounds: about twice the worst rate measured on any ISA (see the report).
 TEST_CASE("watertight: generated tets and hexes", "[cells][watertight][isa]") {
   CellRunner const run{false, test::isa()};
   auto const tets = generate_tets(3000, 3, 0.3f);
@@ -225,21 +302,31 @@ TEST_CASE("watertight: generated tets and hexes", "[cells][watertight][isa]") {
   CHECK(t[0].doubles == 0);
   CHECK(t[0].chain_gaps == 0);
   CHECK(t[0].chain_overlaps == 0);
+  CHECK(t[0].lost == 0);
+  CHECK(t[0].duplicated == 0);
+  CHECK(t[0].aimed > 40);
   for (auto const& k : t) {
-    CHECK(k.gaps <= k.samples / 250);
-    CHECK(k.doubles <= k.samples / 250);
-    CHECK(k.max_gap < 1e-5);  // measured up to 4.8e-7
-    CHECK(k.max_overlap < 1e-5);  // measured up to 3.6e-6 (SSE4, vertex rays)
-    CHECK(k.lost <= k.ref_crossings / 10);
+    CHECK(k.gaps <= k.samples / 250);  // measured <= 1 of 1980
+    CHECK(k.doubles <= k.samples / 100);  // measured <= 9 of 1980 (SSE4, vertex rays)
+    CHECK(k.max_gap < 1e-5);  // measured up to 2.4e-7
+    CHECK(k.max_overlap < 1e-5);  // measured up to 9.5e-7
+    CHECK(k.lost <= k.aimed / 4);  // measured <= 5 of 43 (SSE4, edge rays)
+    CHECK(k.duplicated <= k.aimed + 10);  // measured <= 36 of 46 (SSE4, vertex rays)
   }
   auto const hexes = generate_hexes(343, 3, 0.3f);
   auto const h = measure(run, hexes.mesh(), 60, true, 2);
   report("generated hexes", run, h);
+  CHECK(h[0].lost == 0);
+  CHECK(h[0].duplicated == 0);
+  CHECK(h[0].aimed > 40);
   for (auto const& k : h) {
     CHECK(k.gaps == 0);
     CHECK(k.chain_gaps == 0);
-    CHECK(k.doubles <= k.samples / 10);
-    CHECK(k.lost <= k.ref_crossings / 5);
+    // Containment tolerance (hex_inside_tolerance) claims the aimed point,
+    // on a face, edge or vertex, for several cells: 1 of 33 samples a ray.
+    CHECK(k.doubles <= k.samples / 25);
+    CHECK(k.lost <= k.aimed / 10);  // measured <= 2 of 41 (SSE4, edge rays)
+    CHECK(k.duplicated <= 6 * k.aimed);  // measured <= 118 of 37 (vertex rays: up to 8 cells touch the vertex)
   }
 }
 
@@ -249,9 +336,100 @@ TEST_CASE("watertight: real meshes (post.vtk tets, disk_out_ref.vtu hexes)", "[c
   auto const t = measure(run, post.tet_mesh(), 20, false, 3);
   report("post.vtk", run, t);
   CHECK(t[0].doubles == 0);
-  for (auto const& k : t) CHECK(k.gaps <= k.samples / 50);
+  CHECK(t[0].lost == 0);
+  CHECK(t[0].duplicated == 0);
+  for (auto const& k : t) {
+    CHECK(k.gaps <= k.samples / 50);
+    CHECK(k.lost <= k.aimed / 4);  // measured <= 3 of 16 (SSE4, vertex rays)
+  }
   auto const disk = read_mesh(CELLRAY_SHARED_DATA "/vtk-data/disk_out_ref.vtu");
   auto const h = measure(run, disk.hex_mesh().with_array("Temp"), 10, false, 4);
   report("disk_out_ref.vtu", run, h);
-  for (auto const& k : h) CHECK(k.gaps == 0);
+  CHECK(h[0].lost == 0);
+  CHECK(h[0].duplicated == 0);
+  for (auto const& k : h) {
+    CHECK(k.gaps == 0);
+    CHECK(k.lost <= k.aimed / 10);  // measured 0
+  }
+}
+
+namespace {
+
+/// Address space without memory (MAP_NORESERVE): pages are committed only
+/// when written, so a view can have more than 2^31 vertices.
+class Reservation {
+ public:
+  explicit Reservation(uint64_t bytes) : bytes_(bytes) {
+    void* p = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
+    p_ = p == MAP_FAILED ? nullptr : p;
+  }
+  ~Reservation() {
+    if (p_) munmap(p_, bytes_);
+  }
+  Reservation(Reservation const&) = delete;
+  Reservation& operator=(Reservation const&) = delete;
+  template <class T> T* as() const { return static_cast<T*>(p_); }
+  explicit operator bool() const { return p_ != nullptr; }
+
+ private:
+  void* p_ = nullptr;
+  uint64_t bytes_;
+};
+
+}  // namespace
+
+// Two tets share the face {1, 2^31 + 1, 7}: ids whose low 31 bits are
+// equal, listed in opposite order by the two cells. Ordering by 31 bits
+// would tie them and let each cell keep its own order (a different anchor
+// corner for the face plane); full 64-bit ordering makes both cells evaluate
+// the face alike, so exit and entry agree bit for bit.
+TEST_CASE("canonical face order uses all 64 bits of vertex ids", "[cells][watertight][isa]") {
+  CellRunner const run{false, test::isa()};
+  uint64_t const two31 = uint64_t(1) << 31, nv = two31 + 16;
+  Reservation xyz_mem(3 * nv * sizeof(float)), val_mem(nv * sizeof(float));
+  if (!xyz_mem || !val_mem) {
+    WARN("cannot reserve address space for 2^31 vertices; skipped");
+    return;
+  }
+  float* xyz = xyz_mem.as<float>();
+  float* val = val_mem.as<float>();
+  uint64_t const lo = 1, hi = two31 + 1, x = 7, a = 9, b = 11;
+  auto put = [&](uint64_t v, glm::dvec3 const& p, double s) {
+    xyz[3 * v] = float(p.x), xyz[3 * v + 1] = float(p.y), xyz[3 * v + 2] = float(p.z), val[v] = float(s);
+  };
+  put(lo, {0.1, 0.2, 0.0}, 0.3);
+  put(hi, {1.3, 0.1, 0.1}, 0.9);
+  put(x, {0.3, 1.1, 0.2}, 0.1);
+  put(a, {0.4, 0.5, 1.2}, 0.7);
+  put(b, {0.6, 0.3, -1.1}, 0.2);
+  std::vector<uint64_t> const cells = {lo, hi, x, a, hi, lo, x, b};
+  TetMesh const m{Span<float>{xyz, 3 * nv}, view(cells), Span<float>{val, nv}};
+  Rng rng(5);
+  int shared = 0, mismatched = 0;
+  for (int i = 0; i < 200; ++i) {
+    double u = rng.uniform(0.02, 0.98), v = rng.uniform(0.02, 0.98);
+    if (u + v > 1) u = 1 - u, v = 1 - v;
+    glm::dvec3 const p0(0.1, 0.2, 0.0), p1(1.3, 0.1, 0.1), p2(0.3, 1.1, 0.2);
+    glm::dvec3 const target = p0 + u * (p1 - p0) + v * (p2 - p0);
+    glm::dvec3 const d = rng.direction();
+    RayQuery const q[2] = {test::to_query(target - 2.0 * d, d), test::to_query(target - 2.0 * d, d)};
+    uint32_t const ids[2] = {0, 1};
+    ClipOut gathered[2], broadcast[2];
+    run.clip(m, {ids, 0}, q, 2, gathered);
+    run.clip(m, {nullptr, 0}, &q[0], 1, &broadcast[0]);
+    run.clip(m, {nullptr, 1}, &q[1], 1, &broadcast[1]);
+    for (ClipOut const* c : {gathered, broadcast}) {
+      if (!c[0].hit || !c[1].hit) continue;
+      ++shared;
+      // Whichever cell comes first along the ray, its exit is the other's entry.
+      bool const a_first = c[0].t_in < c[1].t_in;
+      ClipOut const& first = c[a_first ? 0 : 1];
+      ClipOut const& second = c[a_first ? 1 : 0];
+      mismatched += !(first.t_out == second.t_in && first.s_out == second.s_in);
+    }
+  }
+  std::printf("64-bit ids %-6s: %d rays through the shared face, %d with exit != entry\n", run.name().c_str(), shared,
+              mismatched);
+  CHECK(shared > 300);
+  CHECK(mismatched == 0);
 }

@@ -54,13 +54,34 @@ template <class A> struct PointBatch {
 /// vertex id order (any orientation): the tet kernels build each face plane
 /// from its vertices in that order, so two cells sharing a face evaluate
 /// bit-identical expressions for it (watertightness). Hand-built corners
-/// work in any order, only without that guarantee. Ids are the low 31 bits of
-/// the mesh's vertex ids (meshes up to 2^31 vertices order faces exactly).
+/// work in any order, only without that guarantee. `id` is an ordering key:
+/// the kernels only compare the ids of one cell's corners with each other,
+/// so the loaders store the global vertex id itself when the mesh has at
+/// most 2^31 vertices, and the corner's rank among its cell's ids (0..N-1,
+/// compared on all 64 bits) beyond: the same order, exact for any id.
 template <class A, int N> struct CellCorners {
   vfloat<A> x[N], y[N], z[N], s[N];
   vint<A> id[N];
   Vec3<A> p(int i) const { return {x[i], y[i], z[i]}; }
 };
+
+/// Ordering keys (CellCorners::id) of one cell's corners from their global
+/// vertex ids `v`: the ids themselves when every id of the mesh fits in 31
+/// bits (`vertex_count` <= 2^31), else their ranks within the cell, compared
+/// on all 64 bits (equal ids, a degenerate cell, rank by corner index). Any
+/// loader that fills CellCorners must use it so that neighbours order a
+/// shared face alike.
+template <int N> inline void corner_keys(uint64_t vertex_count, uint64_t const (&v)[N], int32_t (&key)[N]) {
+  if (vertex_count <= (uint64_t(1) << 31)) {
+    for (int i = 0; i < N; ++i) key[i] = int32_t(v[i]);
+    return;
+  }
+  for (int i = 0; i < N; ++i) {
+    int32_t r = 0;
+    for (int j = 0; j < N; ++j) r += int32_t(v[j] < v[i] || (v[j] == v[i] && j < i));
+    key[i] = r;
+  }
+}
 
 namespace detail {
 
@@ -94,13 +115,17 @@ template <class A, int N> inline CellCorners<A, N> broadcast_corners(CellMesh<N>
   CellCorners<A, N> c;
   float const* xyz = mesh.positions();
   float const* val = mesh.values();
+  uint64_t vs[N];
+  int32_t key[N];
+  for (int i = 0; i < N; ++i) vs[i] = mesh.vertex(cell, i);
+  corner_keys<N>(mesh.vertex_count(), vs, key);
   for (int i = 0; i < N; ++i) {
-    uint64_t const v = mesh.vertex(cell, i);
+    uint64_t const v = vs[i];
     c.x[i] = vfloat<A>(xyz[3 * v]);
     c.y[i] = vfloat<A>(xyz[3 * v + 1]);
     c.z[i] = vfloat<A>(xyz[3 * v + 2]);
     c.s[i] = vfloat<A>(val ? val[v] : std::numeric_limits<float>::quiet_NaN());
-    c.id[i] = vint<A>(int32_t(v & 0x7fffffffu));
+    c.id[i] = vint<A>(key[i]);
   }
   if constexpr (N == 4) detail::sort_tet_corners(c);
   return c;
@@ -145,17 +170,23 @@ inline CellCorners<A, N> gather_corners(CellMesh<N> const& mesh, vint<A> const& 
   } else {
     alignas(64) int32_t cid[width<A>];
     simd::store(cid, cell);
-    alignas(64) float fx[width<A>], fy[width<A>], fz[width<A>], fs[width<A>];
-    alignas(64) int32_t ids[width<A>];
-    for (int i = 0; i < N; ++i) {
-      for (int l = 0; l < width<A>; ++l) {
-        uint64_t const v = mesh.vertex(uint64_t(uint32_t(cid[l])), i);
-        fx[l] = xyz[3 * v], fy[l] = xyz[3 * v + 1], fz[l] = xyz[3 * v + 2];
-        fs[l] = val ? val[v] : std::numeric_limits<float>::quiet_NaN();
-        ids[l] = int32_t(v & 0x7fffffffu);
+    alignas(64) float fx[N][width<A>], fy[N][width<A>], fz[N][width<A>], fs[N][width<A>];
+    alignas(64) int32_t ids[N][width<A>];
+    for (int l = 0; l < width<A>; ++l) {
+      uint64_t vs[N];
+      int32_t key[N];
+      for (int i = 0; i < N; ++i) vs[i] = mesh.vertex(uint64_t(uint32_t(cid[l])), i);
+      corner_keys<N>(mesh.vertex_count(), vs, key);
+      for (int i = 0; i < N; ++i) {
+        uint64_t const v = vs[i];
+        fx[i][l] = xyz[3 * v], fy[i][l] = xyz[3 * v + 1], fz[i][l] = xyz[3 * v + 2];
+        fs[i][l] = val ? val[v] : std::numeric_limits<float>::quiet_NaN();
+        ids[i][l] = key[i];
       }
-      c.x[i] = simd::load<A>(fx), c.y[i] = simd::load<A>(fy), c.z[i] = simd::load<A>(fz);
-      c.s[i] = simd::load<A>(fs), c.id[i] = simd::load<A>(ids);
+    }
+    for (int i = 0; i < N; ++i) {
+      c.x[i] = simd::load<A>(fx[i]), c.y[i] = simd::load<A>(fy[i]), c.z[i] = simd::load<A>(fz[i]);
+      c.s[i] = simd::load<A>(fs[i]), c.id[i] = simd::load<A>(ids[i]);
     }
   }
   if constexpr (N == 4) detail::sort_tet_corners(c);

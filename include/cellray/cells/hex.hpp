@@ -361,7 +361,10 @@ inline vfloat<A> first_cubic_root(Cubic<A> const& p, vfloat<A> const& f0, vfloat
     hi = simd::select(same_lo, hi, x);
     fhi = simd::select(same_lo, fhi, fx);
     vfloat<A> const nx = x - fx / p.slope(x);
-    vmask<A> const inside = nx > lo && nx < hi;  // false for NaN
+    // Closed bracket: a root exactly at an end (iso equal to the face value
+    // there, f == 0 counts as above) is a fixed point of Newton at that end;
+    // an open test bisected it away, 2^-8 of the cell into the interval.
+    vmask<A> const inside = nx >= lo && nx <= hi;  // false for NaN
     x = simd::select(inside, nx, vfloat<A>(0.5f) * (lo + hi));
   }
   return x;
@@ -418,8 +421,12 @@ inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip
         Vec3<A> const g = detail::hex_world_gradient(c, u, &gok);
         vfloat<A> const f = detail::trilerp<A>(c.s, u) - iso;
         vfloat<A> const nt = t - f / dot(g, d);
-        vmask<A> const take = found && gok && nt >= t_lo && nt <= t_hi;  // false for NaN
-        t = simd::select(take, nt, t);
+        // The root is inside the bracket by construction: a step past an end
+        // (the inverted field and the canonical face value differ by
+        // rounding, so a root at the face can land a hair outside) stops at
+        // that end instead of being dropped.
+        vmask<A> const take = found && gok && simd::abs(nt) < vfloat<A>(inf);  // false for NaN
+        t = simd::select(take, simd::min(simd::max(nt, t_lo), t_hi), t);
       }
     }
     vmask<A> const better = found && t < h.t;
