@@ -1,9 +1,13 @@
 // Min-max BVH build and refit throughput (M cells/s) per builder, for
-// generated tets and hexes of 100k, 1M and 5M cells, on 1 thread and on all
-// threads; counters give bytes per cell, SAH cost and the tree shape.
+// generated tets and hexes of 100k, 1M (and 5M with CELLRAY_BENCH_LARGE=1)
+// cells, on 1 thread and on all threads; counters give bytes per cell, SAH
+// cost and the tree shape. `BM_tree` is the table of tree statistics per
+// builder (SAH cost, nodes, leaves, leaf sizes, depth, bytes per cell) for
+// the traversal benchmarks to compare against; it times `bvh_stats`.
 //
 //   bench_bvh --benchmark_min_time=0.1
 //   bench_bvh --benchmark_filter='BM_build/2/4/1000000'   (morton, tets, 1M)
+//   bench_bvh --benchmark_filter='BM_tree' --benchmark_counters_tabular=true
 //
 // Arguments: builder (0 spatial_median, 1 binned_sah, 2 morton), corners
 // (4 tets, 8 hexes), target cells, threads (0 = all).
@@ -11,6 +15,8 @@
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <map>
 #include <memory>
 #include <utility>
@@ -34,6 +40,17 @@ template <int N> GeneratedMesh<N> const& cached_mesh(uint64_t cells) {
     else slot = std::make_unique<GeneratedMesh<8>>(generate_hexes(cells));
   }
   return *slot;
+}
+
+/// 5M-cell cases only when the environment asks (they take minutes).
+bool large() {
+  char const* v = std::getenv("CELLRAY_BENCH_LARGE");
+  return v && std::strcmp(v, "1") == 0;
+}
+
+std::vector<int64_t> sizes() {
+  if (large()) return {100000, 1000000, 5000000};
+  return {100000, 1000000};
 }
 
 int thread_count(int64_t arg) { return arg > 0 ? int(arg) : tbb::info::default_concurrency(); }
@@ -114,15 +131,60 @@ void BM_refit(benchmark::State& state) {
   else run_refit<8>(state);
 }
 
+/// Tree statistics of one builder's BVH (built once, outside the timing).
+template <int N> void run_tree(benchmark::State& state) {
+  auto const& gen = cached_mesh<N>(uint64_t(state.range(2)));
+  CellMesh<N> const mesh = gen.mesh();
+  BuildOptions opt;
+  opt.builder = BvhBuilder(state.range(0));
+  MinMaxBvh const bvh = build_minmax_bvh(mesh, opt);
+  if (!items_once(bvh, mesh.cell_count())) {
+    state.SkipWithError("BVH does not hold every cell exactly once");
+    return;
+  }
+  BvhStats st;
+  for (auto _ : state) {
+    st = bvh_stats(bvh);
+    benchmark::DoNotOptimize(st.leaves);  // not the double: GCC may hand "+r" an integer register
+  }
+  state.SetLabel(builder_name(opt.builder));
+  state.counters["SAH"] = st.sah_cost;
+  state.counters["nodes"] = double(st.nodes);
+  state.counters["leaves"] = double(st.leaves);
+  state.counters["leaf"] = st.mean_leaf_items;
+  uint64_t max_leaf = 0, small = 0;  // largest leaf; leaves of 1-2 items
+  for (size_t k = 0; k < st.leaf_size_histogram.size(); ++k)
+    if (st.leaf_size_histogram[k]) {
+      max_leaf = k;
+      if (k <= 2) small += st.leaf_size_histogram[k];
+    }
+  state.counters["leaf_max"] = double(max_leaf);
+  state.counters["leaf<=2"] = st.leaves ? double(small) / double(st.leaves) : 0.0;
+  state.counters["depth"] = st.max_depth;
+  state.counters["leaf_depth"] = st.mean_leaf_depth;
+  state.counters["B/cell"] = st.bytes_per_cell;
+}
+
+void BM_tree(benchmark::State& state) {
+  if (state.range(1) == 4) run_tree<4>(state);
+  else run_tree<8>(state);
+}
+
+void tree_args(benchmark::internal::Benchmark* b) {
+  for (int64_t cells : sizes())
+    for (int64_t corners : {4, 8})
+      for (int64_t builder : {0, 1, 2}) b->Args({builder, corners, cells, 0});
+}
+
 void build_args(benchmark::internal::Benchmark* b) {
-  for (int64_t cells : {100000, 1000000, 5000000})
+  for (int64_t cells : sizes())
     for (int64_t corners : {4, 8})
       for (int64_t builder : {0, 1, 2})
         for (int64_t threads : {1, 0}) b->Args({builder, corners, cells, threads});
 }
 
 void refit_args(benchmark::internal::Benchmark* b) {
-  for (int64_t cells : {100000, 1000000, 5000000})
+  for (int64_t cells : sizes())
     for (int64_t corners : {4, 8})
       for (int64_t threads : {1, 0}) b->Args({2, corners, cells, threads});
 }
@@ -131,5 +193,6 @@ void refit_args(benchmark::internal::Benchmark* b) {
 
 BENCHMARK(BM_build)->Apply(build_args)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_refit)->Apply(refit_args)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_tree)->Apply(tree_args)->Unit(benchmark::kMillisecond)->Iterations(1);
 
 BENCHMARK_MAIN();
