@@ -23,9 +23,7 @@ namespace {
 
 struct HexCase {
   GeneratedMesh<8> g = generate_hexes(1000, 5, 0.3f);
-  std::vector<uint32_t> cells;
-  std::vector<RayQuery> rays;
-  std::vector<float> points;
+  test::QuerySet q;
   std::vector<glm::dvec3> params;  // true trilinear coordinates of points
   HexCase() {
     HexMesh const m = g.mesh();
@@ -37,9 +35,7 @@ struct HexCase {
       glm::dvec3 const target = ref::position(h, u);
       glm::dvec3 const d = rng.direction() * rng.uniform(0.5, 2);
       glm::dvec3 const o = i % 4 == 2 ? rng.in_box(-2, 2) : target - rng.uniform(-1, 3) * d;
-      cells.push_back(c);
-      rays.push_back(test::to_query(o, d));
-      points.insert(points.end(), {float(target.x), float(target.y), float(target.z)});
+      q.add(c, test::to_query(o, d), target);
       params.push_back(u);
     }
   }
@@ -48,35 +44,20 @@ struct HexCase {
 void check_hexes(CellRunner const& run) {
   static HexCase const k;
   HexMesh const m = k.g.mesh();
-  uint64_t const n = k.cells.size();
-  for (int mode = 0; mode < 2; ++mode) {
-    std::vector<ClipOut> clip(n);
-    std::vector<LocateOut> loc(n);
-    std::vector<float> grad(3 * n), gradc(3 * n);
+  uint64_t const n = k.q.size();
+  for (int mode = 0; mode < 2; ++mode) {  // 0: SPMD gather, 1: packet broadcast (one call per query)
     float const isos[3] = {0.3f, 0.5f, 0.42f};
-    std::vector<IsoOut> iso(n);
-    if (mode == 0) {
-      CellSelect const sel{k.cells.data(), 0};
-      run.clip(m, sel, k.rays.data(), n, clip.data());
-      run.locate(m, sel, k.points.data(), n, loc.data());
-      run.gradient(m, sel, k.points.data(), n, GradientMethod::analytic, 0.f, grad.data());
-      run.gradient(m, sel, k.points.data(), n, GradientMethod::central, 1e-3f, gradc.data());
-      run.iso(m, sel, k.rays.data(), n, isos, 3, {}, iso.data());
-    } else {
-      for (uint64_t i = 0; i < n; ++i) {
-        CellSelect const sel{nullptr, k.cells[i]};
-        run.clip(m, sel, &k.rays[i], 1, &clip[i]);
-        run.locate(m, sel, &k.points[3 * i], 1, &loc[i]);
-        run.gradient(m, sel, &k.points[3 * i], 1, GradientMethod::analytic, 0.f, &grad[3 * i]);
-        run.gradient(m, sel, &k.points[3 * i], 1, GradientMethod::central, 1e-3f, &gradc[3 * i]);
-        run.iso(m, sel, &k.rays[i], 1, isos, 3, {}, &iso[i]);
-      }
-    }
+    test::QueryResults const res = test::run_queries(run, m, k.q, isos, 3, 1e-3f, mode == 1);
+    auto const& clip = res.clip;
+    auto const& loc = res.locate;
+    auto const& grad = res.gradient;
+    auto const& gradc = res.gradient_central;
+    auto const& iso = res.iso;
     double e_t = 0, e_s = 0, e_u = 0, e_loc = 0, e_g = 0, e_gc = 0, e_iso = 0;
     int hits = 0, hit_mismatch = 0, not_inside = 0, iso_mismatch = 0, iso_hits = 0;
     for (uint64_t i = 0; i < n; ++i) {
-      ref::Hex const h = ref::load(m, k.cells[i]);
-      ref::Ray const r = test::to_ref(k.rays[i]);
+      ref::Hex const h = ref::load(m, k.q.cells[i]);
+      ref::Ray const r = test::to_ref(k.q.rays[i]);
       ref::Clip const rc = ref::clip(h, r);
       double const dl = glm::length(r.d);
       bool const graze = std::abs(rc.t_out - rc.t_in) * dl < 1e-4;
@@ -88,7 +69,7 @@ void check_hexes(CellRunner const& run) {
         for (int a = 0; a < 3; ++a)
           e_u = std::max({e_u, std::abs(clip[i].u_in[a] - rc.u_in[a]), std::abs(clip[i].u_out[a] - rc.u_out[a])});
       }
-      glm::dvec3 const p(k.points[3 * i], k.points[3 * i + 1], k.points[3 * i + 2]);
+      glm::dvec3 const p(k.q.points[3 * i], k.q.points[3 * i + 1], k.q.points[3 * i + 2]);
       ref::Location const rl = ref::locate(h, p);
       REQUIRE(rl.inside);
       not_inside += !loc[i].inside;

@@ -24,9 +24,7 @@ namespace {
 /// (3/4 of them), and random lines (mostly misses).
 struct TetCase {
   GeneratedMesh<4> g = generate_tets(3000, 7, 0.3f);
-  std::vector<uint32_t> cells;
-  std::vector<RayQuery> rays;
-  std::vector<float> points;  // xyz: random points in (or, for 1/4, near) the cell
+  test::QuerySet q;  // points: random points in (or, for 1/4, near) the cell
   TetCase() {
     TetMesh const m = g.mesh();
     Rng rng(11);
@@ -40,9 +38,7 @@ struct TetCase {
       if (i % 4 == 3) target += 0.05 * rng.in_box(-1, 1);
       glm::dvec3 const d = rng.direction() * rng.uniform(0.5, 2);
       glm::dvec3 const o = i % 4 == 2 ? rng.in_box(-2, 2) : target - rng.uniform(-1, 3) * d;
-      cells.push_back(c);
-      rays.push_back(test::to_query(o, d));
-      points.insert(points.end(), {float(target.x), float(target.y), float(target.z)});
+      q.add(c, test::to_query(o, d), target);
     }
   }
 };
@@ -50,37 +46,21 @@ struct TetCase {
 void check_tets(CellRunner const& run) {
   static TetCase const k;
   TetMesh const m = k.g.mesh();
-  uint64_t const n = k.cells.size();
+  uint64_t const n = k.q.size();
   for (int mode = 0; mode < 2; ++mode) {  // 0: SPMD gather, 1: packet broadcast (one call per query)
-    std::vector<ClipOut> clip(n);
-    std::vector<LocateOut> loc(n);
-    std::vector<float> grad(3 * n), gradc(3 * n);
     float const isos[3] = {0.3f, 0.5f, 0.42f};
-    std::vector<IsoOut> iso(n), neu(n);
-    if (mode == 0) {
-      CellSelect const sel{k.cells.data(), 0};
-      run.clip(m, sel, k.rays.data(), n, clip.data());
-      run.locate(m, sel, k.points.data(), n, loc.data());
-      run.gradient(m, sel, k.points.data(), n, GradientMethod::analytic, 0.f, grad.data());
-      run.gradient(m, sel, k.points.data(), n, GradientMethod::central, 1e-2f, gradc.data());
-      run.iso(m, sel, k.rays.data(), n, isos, 3, {}, iso.data());
-      run.iso(m, sel, k.rays.data(), n, isos, 3, {CellIsoMethod::neubauer, 2, 0}, neu.data());
-    } else {
-      for (uint64_t i = 0; i < n; ++i) {
-        CellSelect const sel{nullptr, k.cells[i]};
-        run.clip(m, sel, &k.rays[i], 1, &clip[i]);
-        run.locate(m, sel, &k.points[3 * i], 1, &loc[i]);
-        run.gradient(m, sel, &k.points[3 * i], 1, GradientMethod::analytic, 0.f, &grad[3 * i]);
-        run.gradient(m, sel, &k.points[3 * i], 1, GradientMethod::central, 1e-2f, &gradc[3 * i]);
-        run.iso(m, sel, &k.rays[i], 1, isos, 3, {}, &iso[i]);
-        run.iso(m, sel, &k.rays[i], 1, isos, 3, {CellIsoMethod::neubauer, 2, 0}, &neu[i]);
-      }
-    }
+    test::QueryResults const res = test::run_queries(run, m, k.q, isos, 3, 1e-2f, mode == 1);
+    auto const& clip = res.clip;
+    auto const& loc = res.locate;
+    auto const& grad = res.gradient;
+    auto const& gradc = res.gradient_central;
+    auto const& iso = res.iso;
+    auto const& neu = res.neubauer;
     double e_t = 0, e_s = 0, e_loc = 0, e_g = 0, e_gc = 0, e_iso = 0, e_neu = 0;
     int hits = 0, grazing = 0, hit_mismatch = 0, loc_mismatch = 0, iso_mismatch = 0, iso_hits = 0;
     for (uint64_t i = 0; i < n; ++i) {
-      ref::Tet const t = ref::load(m, k.cells[i]);
-      ref::Ray const r = test::to_ref(k.rays[i]);
+      ref::Tet const t = ref::load(m, k.q.cells[i]);
+      ref::Ray const r = test::to_ref(k.q.rays[i]);
       ref::Clip const rc = ref::clip(t, r);
       double const dl = glm::length(r.d);
       // Grazing: the interval (or its length) is within float rounding of
@@ -93,7 +73,7 @@ void check_tets(CellRunner const& run) {
         e_t = std::max({e_t, std::abs(clip[i].t_in - rc.t_in) * dl, std::abs(clip[i].t_out - rc.t_out) * dl});
         e_s = std::max({e_s, std::abs(clip[i].s_in - rc.s_in), std::abs(clip[i].s_out - rc.s_out)});
       }
-      glm::dvec3 const p(k.points[3 * i], k.points[3 * i + 1], k.points[3 * i + 2]);
+      glm::dvec3 const p(k.q.points[3 * i], k.q.points[3 * i + 1], k.q.points[3 * i + 2]);
       ref::Location const rl = ref::locate(t, p);
       double const margin = std::min({rl.param.x, rl.param.y, rl.param.z, 1 - rl.param.x - rl.param.y - rl.param.z});
       if (rl.inside != bool(loc[i].inside) && std::abs(margin) > 1e-5) ++loc_mismatch;

@@ -6,8 +6,6 @@
 
 #include <catch2/catch.hpp>
 
-#include <sys/mman.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -353,30 +351,6 @@ TEST_CASE("watertight: real meshes (post.vtk tets, disk_out_ref.vtu hexes)", "[c
   }
 }
 
-namespace {
-
-/// Address space without memory (MAP_NORESERVE): pages are committed only
-/// when written, so a view can have more than 2^31 vertices.
-class Reservation {
- public:
-  explicit Reservation(uint64_t bytes) : bytes_(bytes) {
-    void* p = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
-    p_ = p == MAP_FAILED ? nullptr : p;
-  }
-  ~Reservation() {
-    if (p_) munmap(p_, bytes_);
-  }
-  Reservation(Reservation const&) = delete;
-  Reservation& operator=(Reservation const&) = delete;
-  template <class T> T* as() const { return static_cast<T*>(p_); }
-  explicit operator bool() const { return p_ != nullptr; }
-
- private:
-  void* p_ = nullptr;
-  uint64_t bytes_;
-};
-
-}  // namespace
 
 // Two tets share the face {1, 2^31 + 1, 7}: ids whose low 31 bits are
 // equal, listed in opposite order by the two cells. Ordering by 31 bits
@@ -386,7 +360,7 @@ class Reservation {
 TEST_CASE("canonical face order uses all 64 bits of vertex ids", "[cells][watertight][isa]") {
   CellRunner const run{false, test::isa()};
   uint64_t const two31 = uint64_t(1) << 31, nv = two31 + 16;
-  Reservation xyz_mem(3 * nv * sizeof(float)), val_mem(nv * sizeof(float));
+  test::Reservation xyz_mem(3 * nv * sizeof(float)), val_mem(nv * sizeof(float));
   if (!xyz_mem || !val_mem) {
     WARN("cannot reserve address space for 2^31 vertices; skipped");
     return;

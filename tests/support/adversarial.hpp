@@ -1,7 +1,10 @@
 #pragma once
 // Small owning meshes that break naive cell kernels: zero-volume tets,
 // flat / inverted / twisted / non-planar hexes, NaN values, plus the random
-// helpers the cell tests share (fixed seeds, platform independent).
+// helpers the cell tests share (fixed seeds, platform independent), and
+// address space for views with more than 2^31 vertices.
+
+#include <sys/mman.h>
 
 #include <cmath>
 #include <cstdint>
@@ -143,5 +146,27 @@ inline RayQuery to_query(glm::dvec3 const& o, glm::dvec3 const& d) {
 inline ref::Ray to_ref(RayQuery const& q) { return {{q.ox, q.oy, q.oz}, {q.dx, q.dy, q.dz}}; }
 
 inline constexpr float nanf = std::numeric_limits<float>::quiet_NaN();
+
+/// Address space without memory: an anonymous MAP_NORESERVE mapping whose
+/// pages are committed only when written, so a view can index 2^31+
+/// vertices while a test touches a few. Falsy when the mapping fails.
+class Reservation {
+ public:
+  explicit Reservation(uint64_t bytes) : bytes_(bytes) {
+    void* p = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
+    p_ = p == MAP_FAILED ? nullptr : p;
+  }
+  ~Reservation() {
+    if (p_) munmap(p_, bytes_);
+  }
+  Reservation(Reservation const&) = delete;
+  Reservation& operator=(Reservation const&) = delete;
+  template <class T> T* as() const { return static_cast<T*>(p_); }
+  explicit operator bool() const { return p_ != nullptr; }
+
+ private:
+  void* p_ = nullptr;
+  uint64_t bytes_;
+};
 
 }  // namespace cellray::test

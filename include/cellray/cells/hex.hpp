@@ -384,11 +384,10 @@ inline vfloat<A> first_cubic_root(Cubic<A> const& p, vfloat<A> const& f0, vfloat
 /// carry NaN.
 template <class A>
 inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip, CellCorners<A, 8> const& c,
-                              float const* isovalues, int count, int refine_steps = 2) {
+                                  float const* isovalues, int count, int refine_steps = 2) {
   constexpr float inf = std::numeric_limits<float>::infinity();
-  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
   vmask<A> const valid = clip.hit && !has_nan_value(c);
-  if (simd::none(valid)) return h;
+  if (simd::none(valid)) return {vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
   Vec3<A> const du = clip.u_out - clip.u_in;
   vfloat<A> const dt = clip.t_out - clip.t_in;
   Vec3<A> const o = ray.origin(), d = ray.dir();
@@ -401,40 +400,32 @@ inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip
     return detail::trilerp<A>(c.s, u);
   };
   vfloat<A> const v1 = on_ray(1.f / 3.f), v2 = on_ray(2.f / 3.f);
-  for (int k = 0; k < count; ++k) {
-    vfloat<A> const iso(isovalues[k]);
+  return detail::nearest_crossing<A>(isovalues, count, [&](vfloat<A> const& iso, vmask<A>& found) {
     vfloat<A> const f0 = clip.s_in - iso, f3 = clip.s_out - iso;
     detail::Cubic<A> const cubic = detail::cubic_through<A>(f0, v1 - iso, v2 - iso, f3);
-    vmask<A> found;
     vfloat<A> lo, hi;
     vfloat<A> const lam = detail::first_cubic_root(cubic, f0, f3, found, lo, hi);
     found = found && valid;
-    if (simd::none(found)) continue;
     vfloat<A> t = clip.t_in + lam * dt;
-    if (refine_steps > 0) {
-      vfloat<A> const t_lo = clip.t_in + lo * dt, t_hi = clip.t_in + hi * dt;
-      Vec3<A> u = clip.u_in + lam * du;
-      for (int s = 0; s < refine_steps; ++s) {
-        vmask<A> conv;
-        u = detail::invert_hex(c, o + t * d, u, found, 3, conv);
-        vmask<A> gok;
-        Vec3<A> const g = detail::hex_world_gradient(c, u, &gok);
-        vfloat<A> const f = detail::trilerp<A>(c.s, u) - iso;
-        vfloat<A> const nt = t - f / dot(g, d);
-        // The root is inside the bracket by construction: a step past an end
-        // (the inverted field and the canonical face value differ by
-        // rounding, so a root at the face can land a hair outside) stops at
-        // that end instead of being dropped.
-        vmask<A> const take = found && gok && simd::abs(nt) < vfloat<A>(inf);  // false for NaN
-        t = simd::select(take, simd::min(simd::max(nt, t_lo), t_hi), t);
-      }
+    if (refine_steps <= 0 || simd::none(found)) return t;
+    vfloat<A> const t_lo = clip.t_in + lo * dt, t_hi = clip.t_in + hi * dt;
+    Vec3<A> u = clip.u_in + lam * du;
+    for (int s = 0; s < refine_steps; ++s) {
+      vmask<A> conv;
+      u = detail::invert_hex(c, o + t * d, u, found, 3, conv);
+      vmask<A> gok;
+      Vec3<A> const g = detail::hex_world_gradient(c, u, &gok);
+      vfloat<A> const f = detail::trilerp<A>(c.s, u) - iso;
+      vfloat<A> const nt = t - f / dot(g, d);
+      // The root is inside the bracket by construction: a step past an end
+      // (the inverted field and the canonical face value differ by
+      // rounding, so a root at the face can land a hair outside) stops at
+      // that end instead of being dropped.
+      vmask<A> const take = found && gok && simd::abs(nt) < vfloat<A>(inf);  // false for NaN
+      t = simd::select(take, simd::min(simd::max(nt, t_lo), t_hi), t);
     }
-    vmask<A> const better = found && t < h.t;
-    h.t = simd::select(better, t, h.t);
-    h.iso_index = simd::select(simd::to_int_mask(better), vint<A>(k), h.iso_index);
-    h.hit = h.hit || better;
-  }
-  return h;
+    return t;
+  });
 }
 
 /// Neubauer's method with `steps` rounds (paper Fig. 5, N = 2 there) on the
@@ -446,32 +437,18 @@ inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip
 template <class A>
 inline CellIsoHit<A> iso_root_hex_neubauer(RayBatch<A> const& ray, HexClip<A> const& clip, CellCorners<A, 8> const& c,
                                            float const* isovalues, int count, int steps) {
-  constexpr float inf = std::numeric_limits<float>::infinity();
-  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
-  vmask<A> const valid = clip.hit && !has_nan_value(c);
   Vec3<A> const du = clip.u_out - clip.u_in;
   vfloat<A> const dt = clip.t_out - clip.t_in;
   Vec3<A> const o = ray.origin(), d = ray.dir();
-  for (int k = 0; k < count; ++k) {
-    vfloat<A> const iso(isovalues[k]);
-    vmask<A> const cross = valid && detail::mask_xor<A>(clip.s_in >= iso, clip.s_out >= iso);
-    if (simd::none(cross)) continue;
-    // Paper Fig. 5 interpolates at points on the ray: invert each one
-    // (warm start on the parametric segment, 4 Newton iterations).
-    auto f = [&](vfloat<A> const& lam) {
-      vmask<A> conv;
-      Vec3<A> const u = detail::invert_hex(c, o + (clip.t_in + lam * dt) * d, clip.u_in + lam * du, cross, 4, conv);
-      return detail::trilerp<A>(c.s, u) - iso;
-    };
-    vfloat<A> const lam =
-        detail::neubauer<A>(f, vfloat<A>(0.f), vfloat<A>(1.f), clip.s_in - iso, clip.s_out - iso, steps);
-    vfloat<A> const t = clip.t_in + lam * (clip.t_out - clip.t_in);
-    vmask<A> const better = cross && t < h.t;
-    h.t = simd::select(better, t, h.t);
-    h.iso_index = simd::select(simd::to_int_mask(better), vint<A>(k), h.iso_index);
-    h.hit = h.hit || better;
-  }
-  return h;
+  // Paper Fig. 5 interpolates at points on the ray: invert each one (warm
+  // start on the parametric segment, 4 Newton iterations).
+  return detail::neubauer_crossings<A>(clip, clip.hit && !has_nan_value(c), isovalues, count, steps,
+                                       [&](vfloat<A> const& lam, vmask<A> const& lanes) {
+                                         vmask<A> conv;
+                                         Vec3<A> const u = detail::invert_hex(c, o + (clip.t_in + lam * dt) * d,
+                                                                              clip.u_in + lam * du, lanes, 4, conv);
+                                         return detail::trilerp<A>(c.s, u);
+                                       });
 }
 
 /// Neubauer on the straight parametric segment between entry and exit
@@ -480,24 +457,10 @@ inline CellIsoHit<A> iso_root_hex_neubauer(RayBatch<A> const& ray, HexClip<A> co
 template <class A>
 inline CellIsoHit<A> iso_root_hex_neubauer(HexClip<A> const& clip, CellCorners<A, 8> const& c, float const* isovalues,
                                            int count, int steps) {
-  constexpr float inf = std::numeric_limits<float>::infinity();
-  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
-  vmask<A> const valid = clip.hit && !has_nan_value(c);
   Vec3<A> const du = clip.u_out - clip.u_in;
-  for (int k = 0; k < count; ++k) {
-    vfloat<A> const iso(isovalues[k]);
-    vmask<A> const cross = valid && detail::mask_xor<A>(clip.s_in >= iso, clip.s_out >= iso);
-    if (simd::none(cross)) continue;
-    auto f = [&](vfloat<A> const& lam) { return detail::trilerp<A>(c.s, clip.u_in + lam * du) - iso; };
-    vfloat<A> const lam =
-        detail::neubauer<A>(f, vfloat<A>(0.f), vfloat<A>(1.f), clip.s_in - iso, clip.s_out - iso, steps);
-    vfloat<A> const t = clip.t_in + lam * (clip.t_out - clip.t_in);
-    vmask<A> const better = cross && t < h.t;
-    h.t = simd::select(better, t, h.t);
-    h.iso_index = simd::select(simd::to_int_mask(better), vint<A>(k), h.iso_index);
-    h.hit = h.hit || better;
-  }
-  return h;
+  return detail::neubauer_crossings<A>(
+      clip, clip.hit && !has_nan_value(c), isovalues, count, steps,
+      [&](vfloat<A> const& lam, vmask<A> const&) { return detail::trilerp<A>(c.s, clip.u_in + lam * du); });
 }
 
 }  // namespace CELLRAY_ISA_NS

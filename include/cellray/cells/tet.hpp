@@ -103,6 +103,48 @@ inline vfloat<A> neubauer(F const& f, vfloat<A> t0, vfloat<A> t1, vfloat<A> f0, 
   return interp();
 }
 
+/// Keeps, per lane, the nearer of `h` and the crossing (found, t) of
+/// isovalue number `index`; a tie keeps `h` (the lower index when isovalues
+/// are tried in order).
+template <class A> inline void keep_nearest(CellIsoHit<A>& h, vmask<A> const& found, vfloat<A> const& t, int index) {
+  vmask<A> const better = found && t < h.t;
+  h.t = simd::select(better, t, h.t);
+  h.iso_index = simd::select(simd::to_int_mask(better), vint<A>(index), h.iso_index);
+  h.hit = h.hit || better;
+}
+
+/// The nearest crossing over `count` isovalues shared by all lanes (ties:
+/// lower index). `root(iso, found)` returns the crossing's t for isovalue
+/// `iso` (a batch of one value) and sets `found` in the lanes that have one;
+/// it may return anything when no lane has.
+template <class A, class Root> inline CellIsoHit<A> nearest_crossing(float const* isovalues, int count, Root const& root) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
+  for (int k = 0; k < count; ++k) {
+    vmask<A> found(false);
+    vfloat<A> const t = root(vfloat<A>(isovalues[k]), found);
+    if (simd::any(found)) keep_nearest<A>(h, found, t, k);
+  }
+  return h;
+}
+
+/// Neubauer's method (see neubauer) on a clip interval for every isovalue,
+/// shared by tets and hexes: a crossing exists where exactly one end value
+/// is >= iso (the half-open rule of iso_root_tet), then `steps` rounds on
+/// `value(lam, lanes)`, the field at t_in + lam (t_out - t_in), lam in [0,1],
+/// needed in `lanes` only.
+template <class A, class Value>
+inline CellIsoHit<A> neubauer_crossings(CellClip<A> const& clip, vmask<A> const& valid, float const* isovalues,
+                                        int count, int steps, Value const& value) {
+  return nearest_crossing<A>(isovalues, count, [&](vfloat<A> const& iso, vmask<A>& cross) {
+    cross = valid && mask_xor<A>(clip.s_in >= iso, clip.s_out >= iso);
+    if (simd::none(cross)) return iso;
+    auto f = [&](vfloat<A> const& lam) { return value(lam, cross) - iso; };
+    vfloat<A> const lam = neubauer<A>(f, vfloat<A>(0.f), vfloat<A>(1.f), clip.s_in - iso, clip.s_out - iso, steps);
+    return clip.t_in + lam * (clip.t_out - clip.t_in);
+  });
+}
+
 }  // namespace detail
 
 /// Ray clip against one tet per lane: four planes (paper Fig. 5, first
@@ -279,21 +321,12 @@ template <class A> inline Vec3<A> gradient_central_tet(CellCorners<A, 4> const& 
 /// to the lower index.
 template <class A>
 inline CellIsoHit<A> iso_root_tet(CellClip<A> const& clip, CellCorners<A, 4> const& c, float const* isovalues, int count) {
-  constexpr float inf = std::numeric_limits<float>::infinity();
-  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
   vmask<A> const valid = clip.hit && !has_nan_value(c);
-  for (int k = 0; k < count; ++k) {
-    vfloat<A> const iso(isovalues[k]);
-    vmask<A> const cross = valid && detail::mask_xor<A>(clip.s_in >= iso, clip.s_out >= iso);
-    if (simd::none(cross)) continue;
+  return detail::nearest_crossing<A>(isovalues, count, [&](vfloat<A> const& iso, vmask<A>& cross) {
+    cross = valid && detail::mask_xor<A>(clip.s_in >= iso, clip.s_out >= iso);
     vfloat<A> const lam = detail::clamp01<A>((iso - clip.s_in) / (clip.s_out - clip.s_in));
-    vfloat<A> const t = clip.t_in + lam * (clip.t_out - clip.t_in);
-    vmask<A> const better = cross && t < h.t;
-    h.t = simd::select(better, t, h.t);
-    h.iso_index = simd::select(simd::to_int_mask(better), vint<A>(k), h.iso_index);
-    h.hit = h.hit || better;
-  }
-  return h;
+    return clip.t_in + lam * (clip.t_out - clip.t_in);
+  });
 }
 
 /// Neubauer's method with `steps` rounds (the paper uses 2) on the tet's
@@ -301,23 +334,13 @@ inline CellIsoHit<A> iso_root_tet(CellClip<A> const& clip, CellCorners<A, 4> con
 /// for the linear tet field it returns the same root up to rounding.
 template <class A>
 inline CellIsoHit<A> iso_root_tet_neubauer(RayBatch<A> const& ray, CellClip<A> const& clip, CellCorners<A, 4> const& c,
-                                       float const* isovalues, int count, int steps) {
-  constexpr float inf = std::numeric_limits<float>::infinity();
-  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
-  vmask<A> const valid = clip.hit && !has_nan_value(c);
+                                           float const* isovalues, int count, int steps) {
   Vec3<A> const o = ray.origin(), d = ray.dir();
-  for (int k = 0; k < count; ++k) {
-    vfloat<A> const iso(isovalues[k]);
-    vmask<A> const cross = valid && detail::mask_xor<A>(clip.s_in >= iso, clip.s_out >= iso);
-    if (simd::none(cross)) continue;
-    auto f = [&](vfloat<A> const& t) { return interpolate_tet(c, o + t * d) - iso; };
-    vfloat<A> const t = detail::neubauer<A>(f, clip.t_in, clip.t_out, clip.s_in - iso, clip.s_out - iso, steps);
-    vmask<A> const better = cross && t < h.t;
-    h.t = simd::select(better, t, h.t);
-    h.iso_index = simd::select(simd::to_int_mask(better), vint<A>(k), h.iso_index);
-    h.hit = h.hit || better;
-  }
-  return h;
+  vfloat<A> const dt = clip.t_out - clip.t_in;
+  return detail::neubauer_crossings<A>(clip, clip.hit && !has_nan_value(c), isovalues, count, steps,
+                                       [&](vfloat<A> const& lam, vmask<A> const&) {
+                                         return interpolate_tet(c, o + (clip.t_in + lam * dt) * d);
+                                       });
 }
 
 }  // namespace CELLRAY_ISA_NS
