@@ -3,7 +3,7 @@
 # the fast renderer's speed against its error versus the double-precision
 # reference renderer, for every knob that trades one for the other.
 # Arguments go to bench_accuracy (e.g. --meshes post,disk --frames 3 --size 128 --full).
-# Takes about 5 minutes on 2 cores with the defaults.
+# Takes about 17 minutes on 2 (shared) cores with the defaults.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install-deps.sh python3-matplotlib
