@@ -8,6 +8,18 @@
 // parameter t and the same value at the crossing bit for bit: the exit of
 // one cell is the entry of the next, with no gap, no overlap, and no iso
 // crossing lost or counted twice (see iso_root_tet).
+//
+// Where this stops: a ray through an edge or a vertex leaves one cell
+// through one plane and enters the next through another (or crosses cells
+// that touch it only there, with an interval of rounding length). Each plane
+// is consistent between its two cells, but the planes through one edge do
+// not meet in exactly one float line, so intervals there may overlap or miss
+// by ~1e-7 (relative) and a crossing of an isovalue equal to the edge/vertex
+// value may be missed or reported by several cells at the same t. Rates are
+// measured in tests/test_cells_watertight.cpp and docs/failure_modes.md; a
+// ray never passes exactly through an edge in practice, so renders do not
+// show it. Removing it would take per-edge (Pluecker) side tests evaluated
+// once per canonically oriented edge and a topological face walk.
 
 #include <limits>
 
