@@ -156,7 +156,7 @@ std::string csv_row(Row const& r) {
 std::vector<Isa> isas_here() {
   std::vector<Isa> v;
   for (Isa i : {Isa::sse4_2, Isa::avx2, Isa::avx512})
-    if (cpu_supports(i)) v.push_back(i);
+    if (isa_available(i)) v.push_back(i);
   return v;
 }
 

@@ -53,7 +53,7 @@ enum Kernel { clip, locate, iso_exact, iso_neubauer2, gradient_central };
 enum Mode { spmd, packet };
 
 template <int N, Kernel K, Mode M, Isa I> void BM_cell(benchmark::State& state) {
-  if (!cpu_supports(I)) {
+  if (!isa_available(I)) {
     state.SkipWithError("ISA not supported");
     return;
   }

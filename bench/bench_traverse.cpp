@@ -116,7 +116,7 @@ template <class F> void parallel_chunks(size_t n, F const& f) {
 }
 
 void BM_iso(benchmark::State& state, std::string const& name, Isa isa, Traversal how, bool incoherent, int threads) {
-  if (!cpu_supports(isa)) return state.SkipWithError("ISA not supported here");
+  if (!isa_available(isa)) return state.SkipWithError("ISA not supported here");
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, size_t(threads));
   Loaded& m = mesh(name);
   TreeView const tree(m.bvh);
@@ -142,7 +142,7 @@ void BM_iso(benchmark::State& state, std::string const& name, Isa isa, Traversal
 }
 
 void BM_samples(benchmark::State& state, std::string const& name, Isa isa, Traversal how, int group, float step_frac) {
-  if (!cpu_supports(isa)) return state.SkipWithError("ISA not supported here");
+  if (!isa_available(isa)) return state.SkipWithError("ISA not supported here");
   Loaded& m = mesh(name);
   TreeView const tree(m.bvh);
   auto rays = primary_rays(m, 256, lanes_of(isa));

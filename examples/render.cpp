@@ -570,7 +570,7 @@ int run(Options const& o) {
   Isa isa = default_isa();
   if (o.isa != "auto") {
     isa = parse_isa(o.isa);
-    if (!cpu_supports(isa)) throw UsageError("--isa " + o.isa + ": this CPU does not support it");
+    if (!isa_available(isa)) throw UsageError("--isa " + o.isa + ": " + isa_unavailable_reason(isa));
   }
   Traversal const traversal = o.traversal == "spmd"     ? Traversal::spmd
                               : o.traversal == "hybrid" ? Traversal::hybrid

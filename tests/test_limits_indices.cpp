@@ -48,7 +48,7 @@ constexpr uint64_t two31 = uint64_t(1) << 31, two32 = uint64_t(1) << 32;
 std::vector<Isa> isas_here() {
   std::vector<Isa> out;
   for (Isa i : all_isas)
-    if (cpu_supports(i)) out.push_back(i);
+    if (isa_available(i)) out.push_back(i);
   return out;
 }
 

@@ -171,7 +171,7 @@ extern "C" int LLVMFuzzerTestOneInput(uint8_t const* data, size_t size) {
   uint8_t const tuning = in.next();  // leaf size, builder, traversal
   if (!std::isfinite(iso_value)) return 0;  // render_iso rejects it (documented); not this harness's subject
   cellray::Isa isa = cellray::Isa((flags >> 2) & 3);
-  if ((int(isa) > 2) || !cellray::cpu_supports(isa)) isa = cellray::best_isa();
+  if ((int(isa) > 2) || !cellray::isa_available(isa)) isa = cellray::best_isa();
   bool const hex = flags & 1, wide = flags & 2;
   if (hex && wide) run<8, uint64_t>(in, flags, tuning, nv, nc, iso_value, isa);
   else if (hex) run<8, uint32_t>(in, flags, tuning, nv, nc, iso_value, isa);

@@ -38,14 +38,21 @@
 namespace cellray {
 
 /// Calls `Entry<arch of isa>::run(args...)`.
+/// @throws InvalidArgument when `isa` is not compiled into this program.
 template <template <class> class Entry, class... Args>
 decltype(auto) dispatch(Isa isa, Args&&... args) {
   switch (isa) {
-    case Isa::avx512: return Entry<avx512>::run(std::forward<Args>(args)...);
-    case Isa::avx2: return Entry<avx2>::run(std::forward<Args>(args)...);
-    case Isa::sse4_2: break;
+    case Isa::avx512:
+      if constexpr (isa_compiled(Isa::avx512)) return Entry<avx512>::run(std::forward<Args>(args)...);
+      break;
+    case Isa::avx2:
+      if constexpr (isa_compiled(Isa::avx2)) return Entry<avx2>::run(std::forward<Args>(args)...);
+      break;
+    case Isa::sse4_2:
+      if constexpr (isa_compiled(Isa::sse4_2)) return Entry<sse4_2>::run(std::forward<Args>(args)...);
+      break;
   }
-  return Entry<sse4_2>::run(std::forward<Args>(args)...);
+  throw InvalidArgument(isa_unavailable_reason(isa));
 }
 
 }  // namespace cellray

@@ -80,23 +80,43 @@ inline bool cpu_supports(Isa isa) noexcept {
   return false;
 }
 
-/// The widest ISA this CPU supports. @throws Error below SSE4.2.
+#ifndef CELLRAY_ISA_COMPILED_MASK
+/// Bit i set: the ISA units of `Isa(i)` are linked into this program.
+/// `cellray_add_isa_units(target ISAS ...)` defines it for the target (and its
+/// ISA units, so every translation unit agrees); the default is all three.
+#define CELLRAY_ISA_COMPILED_MASK 7
+#endif
+
+/// True when this program contains the entry points compiled for `isa`.
+constexpr bool isa_compiled(Isa isa) noexcept { return ((CELLRAY_ISA_COMPILED_MASK >> int(isa)) & 1) != 0; }
+
+/// True when `isa` is both compiled into this program and supported here.
+inline bool isa_available(Isa isa) noexcept { return isa_compiled(isa) && cpu_supports(isa); }
+
+/// Why `isa` cannot run here ("" when it can): for error messages.
+inline std::string isa_unavailable_reason(Isa isa) {
+  if (!isa_compiled(isa))
+    return std::string(isa_name(isa)) + " is not compiled into this program (CMake: CELLRAY_ISAS)";
+  if (!cpu_supports(isa)) return std::string("this CPU does not support ") + isa_name(isa);
+  return {};
+}
+
+/// The widest ISA that is compiled in and that this CPU supports.
+/// @throws Error when there is none (e.g. a CPU below SSE4.2).
 inline Isa best_isa() {
-  if (cpu_supports(Isa::avx512)) return Isa::avx512;
-  if (cpu_supports(Isa::avx2)) return Isa::avx2;
-  if (cpu_supports(Isa::sse4_2)) return Isa::sse4_2;
-  throw Error("cellray needs at least SSE4.2; this CPU lacks it");
+  for (Isa isa : {Isa::avx512, Isa::avx2, Isa::sse4_2})
+    if (isa_available(isa)) return isa;
+  throw Error("cellray: none of the ISAs compiled into this program runs on this CPU (SSE4.2 at least is needed)");
 }
 
 /// The ISA used when a call does not name one: `CELLRAY_ISA` from the
-/// environment if set (it must be supported here), else `best_isa()`.
-/// @throws InvalidArgument for an unknown or unsupported `CELLRAY_ISA`.
+/// environment if set (it must be available here), else `best_isa()`.
+/// @throws InvalidArgument for an unknown or unavailable `CELLRAY_ISA`.
 inline Isa default_isa() {
   char const* env = std::getenv("CELLRAY_ISA");
   if (env == nullptr || *env == '\0' || std::string_view(env) == "auto") return best_isa();
   Isa isa = parse_isa(env);
-  if (!cpu_supports(isa))
-    throw InvalidArgument(std::string("CELLRAY_ISA=") + env + ": this CPU does not support it");
+  if (!isa_available(isa)) throw InvalidArgument(std::string("CELLRAY_ISA=") + env + ": " + isa_unavailable_reason(isa));
   return isa;
 }
 

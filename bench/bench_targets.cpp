@@ -1,0 +1,273 @@
+// The performance targets of issue #9 in one run, printed as a table of
+// target, measured value and ratio (not a Google Benchmark: each figure is
+// the median of several whole frames, as cellray-render --frames reports).
+//
+//   ./build/bench/bench_targets            (about 10 minutes on 2 cores)
+//   ./build/bench/bench_targets --quick    (128x128 frames, no 5M mesh: a smoke run)
+//
+// Every frame is 1024x1024, one sample per pixel, camera fitted to the mesh
+// bounds (fit_camera), as the issue asks. "Per core" figures run TBB with one
+// thread. DVR uses the cool-warm preset (opacity over the top third of the
+// value range, unit distance = diagonal / 10, as cellray-render) at the
+// largest step whose image is within 1/255 RMSE of the reference renderer
+// (checked on a 128x128 frame); cell-segment DVR has no step and is checked
+// the same way.
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <functional>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <tbb/global_control.h>
+
+#include <cellray/bvh/build.hpp>
+#include <cellray/io/read_mesh.hpp>
+#include <cellray/mesh/generate.hpp>
+#include <cellray/render/reference.hpp>
+#include <cellray/render/render.hpp>
+
+using namespace cellray;
+
+namespace {
+
+struct Options {
+  int size = 1024;      ///< frame side, pixels
+  int check_size = 128;  ///< frame side of the accuracy check against the reference
+  int frames = 3;
+  bool large = true;  ///< include the generated 5M-tet mesh
+};
+
+/// One mesh of the targets with its tree and what to show.
+struct Subject {
+  std::string name;
+  GeneratedMesh<4> generated;
+  std::unique_ptr<UnstructuredGrid> grid;
+  TetMesh tets;
+  HexMesh hexes;
+  bool hex = false;
+  MinMaxBvh bvh;
+  float iso = 0.f;
+  float vmin = 0.f, vmax = 0.f;
+
+  Scene scene() const { return hex ? Scene(hexes, bvh) : Scene(tets, bvh); }
+  uint64_t cells() const { return hex ? hexes.cell_count() : tets.cell_count(); }
+};
+
+template <class MeshT> void value_range(MeshT const& m, float& lo, float& hi) {
+  lo = INFINITY, hi = -INFINITY;
+  for (uint64_t i = 0; i < m.vertex_count(); ++i)
+    if (float const v = m.values()[i]; std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
+}
+
+std::unique_ptr<Subject> load(std::string const& name) {
+  auto s = std::make_unique<Subject>();
+  s->name = name;
+  std::string const data = CELLRAY_SHARED_DATA;
+  if (name == "component8_608k") {
+    s->grid = std::make_unique<UnstructuredGrid>(read_mesh(data + "/openfoam/component8_heat_608k.vtk"));
+    s->tets = s->grid->tet_mesh().with_array("T");
+    s->iso = 423.f;
+  } else if (name == "boxturb48_dns") {
+    s->grid = std::make_unique<UnstructuredGrid>(read_mesh(data + "/openfoam/boxturb48_dns.vtk"));
+    s->hexes = s->grid->hex_mesh().with_array("enstrophy");
+    s->hex = true;
+    s->iso = 0.1f;
+  } else {  // gen_tets_<cells>
+    s->generated = generate_tets(std::stoull(name.substr(9)));
+    s->tets = s->generated.mesh();
+    s->iso = 0.45f;
+  }
+  s->bvh = s->hex ? build_minmax_bvh(s->hexes) : build_minmax_bvh(s->tets);
+  if (s->hex) value_range(s->hexes, s->vmin, s->vmax);
+  else value_range(s->tets, s->vmin, s->vmax);
+  return s;
+}
+
+/// Median wall time of `frames` calls, seconds, on `threads` TBB threads.
+double median_seconds(int frames, int threads, std::function<void()> const& f) {
+  tbb::global_control gc(tbb::global_control::max_allowed_parallelism, size_t(threads));
+  f();  // warm caches and TBB's workers
+  std::vector<double> t;
+  for (int i = 0; i < frames; ++i) {
+    auto const a = std::chrono::steady_clock::now();
+    f();
+    t.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count());
+  }
+  std::nth_element(t.begin(), t.begin() + ptrdiff_t(t.size() / 2), t.end());
+  return t[t.size() / 2];
+}
+
+Camera camera_for(Subject const& s, int size) {
+  glm::vec3 lo, hi;
+  s.scene().bounds(lo, hi);
+  return fit_camera(lo, hi, size, size);
+}
+
+IsoParams iso_params(Subject const& s) {
+  IsoParams p;
+  p.surfaces.push_back({s.iso, glm::vec3(0.85f), 1.f});
+  return p;
+}
+
+/// Primary-ray isosurface Mrays/s.
+double iso_mrays(Subject const& s, Options const& o, int threads, Isa isa, Traversal how) {
+  Scene const scene = s.scene();
+  Camera const cam = camera_for(s, o.size);
+  IsoParams const p = iso_params(s);
+  RenderOptions ro;
+  ro.isa = isa;
+  ro.traversal = how;
+  double const t = median_seconds(o.frames, threads, [&] { render_iso(scene, cam, p, ro); });
+  return double(o.size) * double(o.size) / t * 1e-6;
+}
+
+DvrParams dvr_params(Subject const& s) {
+  glm::vec3 lo, hi;
+  s.scene().bounds(lo, hi);
+  DvrParams p;
+  p.tf = transfer_function_preset("cool-warm", s.vmin, s.vmax);
+  p.tf.unit_distance = glm::length(hi - lo) / 10.f;
+  return p;
+}
+
+struct DvrResult {
+  std::string mode;
+  float step = 0.f;  ///< 0 for segments
+  double rmse = 0, mrays = 0;
+};
+
+/// The fastest DVR configuration within 1/255 RMSE of the reference.
+DvrResult best_dvr(Subject const& s, Options const& o) {
+  Scene const scene = s.scene();
+  Camera const check_cam = camera_for(s, o.check_size), cam = camera_for(s, o.size);
+  DvrParams p = dvr_params(s);
+  Image const reference = render_dvr_reference(scene, check_cam, p);
+  glm::vec3 lo, hi;
+  scene.bounds(lo, hi);
+  float const diag = glm::length(hi - lo);
+  std::vector<DvrResult> ok;
+  for (DvrMode mode : {DvrMode::segments, DvrMode::samples}) {
+    p.mode = mode;
+    for (float div : {100.f, 200.f, 400.f, 800.f, 1600.f, 3200.f}) {
+      p.step = diag / div;
+      double const rmse = compare_images(render_dvr(scene, check_cam, p), reference).rmse;
+      if (rmse <= 1.0) {
+        double const t = median_seconds(o.frames, 1, [&] { render_dvr(scene, cam, p); });
+        ok.push_back({mode == DvrMode::segments ? "segments" : "samples", mode == DvrMode::segments ? 0.f : p.step,
+                      rmse, double(o.size) * double(o.size) / t * 1e-6});
+        break;
+      }
+      if (mode == DvrMode::segments) break;  // the step does not matter there
+    }
+  }
+  if (ok.empty()) return {"none within 1/255", 0.f, -1, 0};
+  return *std::max_element(ok.begin(), ok.end(), [](auto const& a, auto const& b) { return a.mrays < b.mrays; });
+}
+
+/// Time of the shadow + AO rays alone: (with them) - (without), per variant.
+double secondary_seconds(Subject const& s, Options const& o, Traversal how, int threads) {
+  Scene const scene = s.scene();
+  Camera const cam = camera_for(s, o.size / 2);
+  IsoParams plain = iso_params(s), lit = iso_params(s);
+  lit.shadows = true;
+  lit.ao_samples = 4;
+  RenderOptions ro;
+  ro.secondary_traversal = how;
+  double const base = median_seconds(o.frames, threads, [&] { render_iso(scene, cam, plain, ro); });
+  double const with = median_seconds(o.frames, threads, [&] { render_iso(scene, cam, lit, ro); });
+  return std::max(with - base, 1e-9);
+}
+
+struct Row {
+  std::string target, measured_as;
+  double measured, goal;
+  bool higher_is_better = true;
+};
+
+void print(std::vector<Row> const& rows) {
+  std::printf("\n| target | measured | goal | ratio | |\n|---|---:|---:|---:|---|\n");
+  for (auto const& r : rows) {
+    double const ratio = r.higher_is_better ? r.measured / r.goal : r.goal / r.measured;
+    std::printf("| %s | %.2f %s | %.2f | %.2f | %s |\n", r.target.c_str(), r.measured, r.measured_as.c_str(), r.goal,
+                ratio, ratio >= 1.0 ? "met" : "**missed**");
+  }
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--quick")) o.size = 128, o.check_size = 64, o.frames = 1, o.large = false;
+    else {
+      std::fprintf(stderr, "usage: %s [--quick]\n", argv[0]);
+      return 2;
+    }
+  }
+  int const all = int(std::thread::hardware_concurrency());
+  std::printf("# cellray performance targets (issue #9): %dx%d frames, median of %d, %d hardware threads, best ISA %s\n",
+              o.size, o.size, o.frames, all, isa_name(best_isa()));
+  std::vector<Row> rows;
+  std::vector<std::string> names = {"component8_608k", "boxturb48_dns"};
+  if (o.large) names.push_back("gen_tets_5000000");
+
+  for (auto const& name : names) {
+    std::fprintf(stderr, "loading %s\n", name.c_str());
+    auto const s = load(name);
+    double const iso = iso_mrays(*s, o, 1, best_isa(), Traversal::packet);
+    rows.push_back({"iso primary, 1 thread, " + name, "Mrays/s", iso, 10.0});
+    DvrResult const d = best_dvr(*s, o);
+    char how[96];
+    std::snprintf(how, sizeof how, "Mrays/s (%s, step %.3g, RMSE %.2f/255)", d.mode.c_str(), d.step, d.rmse);
+    rows.push_back({"DVR, 1 thread, " + name, how, d.mrays, 2.0});
+    print({rows.end() - 2, rows.end()});
+  }
+
+  // SIMD and thread scaling of the packet isosurface traversal.
+  auto const c8 = load("component8_608k");
+  double const sse = iso_mrays(*c8, o, 1, Isa::sse4_2, Traversal::packet);
+  if (isa_available(Isa::avx2))
+    rows.push_back({"AVX2 / SSE4.2, packet iso, component8", "x", iso_mrays(*c8, o, 1, Isa::avx2, Traversal::packet) / sse, 1.5});
+  if (isa_available(Isa::avx512))
+    rows.push_back(
+        {"AVX-512 / SSE4.2, packet iso, component8", "x", iso_mrays(*c8, o, 1, Isa::avx512, Traversal::packet) / sse, 2.0});
+  double const one = iso_mrays(*c8, o, 1, best_isa(), Traversal::packet);
+  double const both = iso_mrays(*c8, o, all, best_isa(), Traversal::packet);
+  rows.push_back({std::to_string(all) + " threads / 1 thread, iso, component8", "x", both / one, 1.8});
+
+  // Secondary rays: the best variant against packets (and which one the renderer picks).
+  double const packet = secondary_seconds(*c8, o, Traversal::packet, 1);
+  double const spmd = secondary_seconds(*c8, o, Traversal::spmd, 1);
+  double const hybrid = secondary_seconds(*c8, o, Traversal::hybrid, 1);
+  std::printf("\nshadow + 4 AO rays per hit, component8, %dx%d, 1 thread: secondary time packet %.0f ms, spmd %.0f ms, "
+              "hybrid %.0f ms (default: %s)\n",
+              o.size / 2, o.size / 2, packet * 1e3, spmd * 1e3, hybrid * 1e3,
+              traversal_name(RenderOptions{}.secondary_traversal));
+  rows.push_back({"shadow+AO rays, best variant / packet", "x", packet / std::min(spmd, hybrid), 1.5});
+
+  // Time to the first image of a new 1M-cell mesh: build + render vs render.
+  {
+    auto const gen = generate_tets(1000000);
+    TetMesh const m = gen.mesh();
+    MinMaxBvh bvh;
+    glm::vec3 lo(-1.f), hi(1.f);
+    Camera const cam = fit_camera(lo, hi, o.size, o.size);
+    IsoParams p;
+    p.surfaces.push_back({0.45f, glm::vec3(0.85f), 1.f});
+    double const build = median_seconds(o.frames, all, [&] { bvh = build_minmax_bvh(m); });
+    Scene const scene(m, bvh);
+    double const render = median_seconds(o.frames, all, [&] { render_iso(scene, cam, p); });
+    char how[64];
+    std::snprintf(how, sizeof how, "x (build %.0f ms, render %.0f ms)", build * 1e3, render * 1e3);
+    rows.push_back({"(build + render) / render, 1M tets, all threads", how, (build + render) / render, 3.0, false});
+  }
+  print(rows);
+  return 0;
+}
