@@ -10,7 +10,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build-tsan}
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCELLRAY_BUILD_TESTS=ON -DCELLRAY_BUILD_EXAMPLES=OFF \
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
+  -DCELLRAY_ISAS="$(./scripts/widest-isa.sh)" -DCELLRAY_BUILD_TESTS=ON -DCELLRAY_BUILD_EXAMPLES=OFF \
   -DCELLRAY_BUILD_BENCH=OFF -DCMAKE_CXX_FLAGS="-fsanitize=thread" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=thread" >/dev/null
 cmake --build "$build" -j"$(nproc)" --target test_render
 TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" CELLRAY_TEST_TBB_THREADS=1 \
