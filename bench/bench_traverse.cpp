@@ -1,9 +1,11 @@
 // Traversal benchmarks: the paper's Table 1 (isosurface primary rays,
 // packet vs SPMD vs hybrid, per ISA and mesh, 1 thread and all threads),
 // Tables 2 and 3 (volume sampling Mrays/s against sample group size and step
-// size) with cell-segment traversal beside them, and incoherent rays.
+// size) with cell-segment traversal beside them (whole DVR frames, samples vs
+// segments, empty-space skipping on/off), and incoherent rays.
 //
 //   ./build/bench/bench_traverse --benchmark_filter=iso --benchmark_min_time=0.2
+//   ./build/bench/bench_traverse --benchmark_filter='^(samples|dvr)/' --benchmark_min_time=0.2
 //
 // Meshes: generated tets/hexes (CELLRAY_BENCH_LARGE=1 adds 1M and 5M cells)
 // and two real ones from ../shared/data. Rays are 512x512 primary rays of the
@@ -12,6 +14,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <map>
@@ -28,6 +31,7 @@
 #include <cellray/io/read_mesh.hpp>
 #include <cellray/mesh/generate.hpp>
 #include <cellray/render/camera.hpp>
+#include <cellray/render/render.hpp>
 
 #include <glm/glm.hpp>
 #include <cellray/traverse/queries.hpp>
@@ -174,6 +178,31 @@ void BM_samples(benchmark::State& state, std::string const& name, Isa isa, Trave
   state.counters["Mrays/s"] = benchmark::Counter(double(rays.size()) * 1e-6, benchmark::Counter::kIsIterationInvariantRate);
 }
 
+/// Whole DVR frames (256x256, one thread): point samples against cell
+/// segments, each with and without empty-space skipping, so the table shows
+/// what segments and skipping gain end to end (traversal + integration).
+void BM_dvr(benchmark::State& state, std::string const& name, DvrMode mode, bool skipping, float step_frac) {
+  tbb::global_control gc(tbb::global_control::max_allowed_parallelism, 1);
+  Loaded& m = mesh(name);
+  Scene const scene = m.hex ? Scene(m.hexes, m.bvh) : Scene(m.tets, m.bvh);
+  Camera const cam = fit_camera(m.lo, m.hi, 256, 256);
+  float const* values = m.hex ? m.hexes.values() : m.tets.values();
+  uint64_t const nv = m.hex ? m.hexes.vertex_count() : m.tets.vertex_count();
+  float lo = INFINITY, hi = -INFINITY;
+  for (uint64_t i = 0; i < nv; ++i)
+    if (std::isfinite(values[i])) lo = std::min(lo, values[i]), hi = std::max(hi, values[i]);
+  DvrParams p;
+  p.tf = transfer_function_preset("cool-warm", lo, hi);  // opacity over the top third of the range
+  p.tf.unit_distance = glm::length(m.hi - m.lo) / 10.f;
+  p.step = glm::length(m.hi - m.lo) * step_frac;
+  p.mode = mode;
+  p.empty_space_skipping = skipping;
+  render_dvr(scene, cam, p);
+  for (auto _ : state) benchmark::DoNotOptimize(render_dvr(scene, cam, p).rgba.data());
+  state.SetItemsProcessed(int64_t(state.iterations()) * 256 * 256);
+  state.counters["Mrays/s"] = benchmark::Counter(256.0 * 256.0 * 1e-6, benchmark::Counter::kIsIterationInvariantRate);
+}
+
 std::vector<std::string> meshes() {
   std::vector<std::string> v = {"gen_tets_100k", "gen_hexes_100k", "component8_608k", "boxturb48_110k"};
   if (std::getenv("CELLRAY_BENCH_LARGE")) v.insert(v.end(), {"gen_tets_1M", "gen_hexes_1M", "gen_tets_5M"});
@@ -199,6 +228,15 @@ int register_all() {
         std::string const n = std::string("samples/") + m + "/avx512/packet/step:" + std::to_string(step) +
                               "/group:" + std::to_string(group);
         benchmark::RegisterBenchmark(n.c_str(), BM_samples, m, Isa::avx512, Traversal::packet, group, step)
+            ->UseRealTime()
+            ->Unit(benchmark::kMillisecond);
+      }
+  for (auto const& m : meshes())
+    for (DvrMode mode : {DvrMode::samples, DvrMode::segments})
+      for (bool skipping : {true, false}) {
+        std::string const n = std::string("dvr/") + m + "/" + (mode == DvrMode::samples ? "samples" : "segments") +
+                              (skipping ? "/skipping" : "/no_skipping") + "/step:0.002";
+        benchmark::RegisterBenchmark(n.c_str(), BM_dvr, m, mode, skipping, 0.002f)
             ->UseRealTime()
             ->Unit(benchmark::kMillisecond);
       }
