@@ -64,18 +64,27 @@ struct BoxScan {
 /// Scans boxes [b, e) (sequential; callers split).
 inline BoxScan scan_boxes(ItemBox const* boxes, uint64_t b, uint64_t e) {
   BoxScan s;
+  PointBounds4 c;
+  int ok = 7;  // lanes 0-2 (xyz) of every box so far finite and ordered
   for (uint64_t i = b; i < e; ++i) {
-    ItemBox const& x = boxes[i];
-    bool ok = true;
-    for (int k = 0; k < 3; ++k) ok = ok && std::isfinite(x.lo[k]) && std::isfinite(x.hi[k]) && x.lo[k] <= x.hi[k];
-    if (!ok) {
-      s.first_bad = std::min(s.first_bad, i);
-      continue;
-    }
-    float c[3];
-    centroid2(x, c);
-    s.centroids.grow_point(c);
+    float const* v = reinterpret_cast<float const*>(boxes + i);
+    F4 const lo = F4::load(v), hi = F4::load(v + 4);
+    ok &= finite_ordered(lo, hi);
+    c.grow(lo + hi);
   }
+  if ((ok & 7) == 7) {
+    s.centroids = c.box();
+    return s;
+  }
+  // Rare: find the first bad box and bound the good ones only.
+  c = PointBounds4{};
+  for (uint64_t i = b; i < e; ++i) {
+    float const* v = reinterpret_cast<float const*>(boxes + i);
+    F4 const lo = F4::load(v), hi = F4::load(v + 4);
+    if ((finite_ordered(lo, hi) & 7) != 7) s.first_bad = std::min(s.first_bad, i);
+    else c.grow(lo + hi);
+  }
+  s.centroids = c.box();
   return s;
 }
 
@@ -142,6 +151,16 @@ inline double seconds_since(std::chrono::steady_clock::time_point t0) {
 /// First cell of [b, e) naming a vertex id >= the vertex count, or e.
 template <int N> uint64_t first_bad_cell(CellMesh<N> const& mesh, uint64_t b, uint64_t e) {
   uint64_t const nv = mesh.vertex_count();
+  if (mesh.has_32bit_indices() && nv > 0 && nv - 1 <= std::numeric_limits<uint32_t>::max()) {
+    // The common case: one branch-free (vectorised) pass over the ids.
+    uint32_t const* ids = mesh.indices32();
+    // Unsigned id > last as a signed compare after flipping the sign bits:
+    // SSE2 has only the signed one, so GCC vectorises this form.
+    auto const last = int32_t(uint32_t(nv - 1) ^ 0x80000000u);
+    int32_t bad = 0;
+    for (uint64_t k = b * N; k < e * N; ++k) bad |= int32_t(int32_t(ids[k] ^ 0x80000000u) > last);
+    if (bad == 0) return e;
+  }
   for (uint64_t c = b; c < e; ++c)
     for (int k = 0; k < N; ++k)
       if (mesh.vertex(c, k) >= nv) return c;

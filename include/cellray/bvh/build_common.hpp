@@ -143,6 +143,12 @@ struct F4 {
   friend F4 max(F4 a, F4 b) noexcept { return {xsimd::max(a.x, b.x)}; }
   /// Truncation to int of lanes known to lie in [0, 2^31).
   void to_int(int32_t* out) const noexcept { xsimd::batch_cast<int32_t>(x).store_unaligned(out); }
+  /// Bit k set when lane k of `lo` and `hi` is finite and lo <= hi (x - x
+  /// is 0 for finite x, NaN for inf and NaN).
+  friend int finite_ordered(F4 lo, F4 hi) noexcept {
+    auto const zero = xsimd::batch<float, xsimd::sse2>(0.f);
+    return _mm_movemask_ps((lo.x - lo.x == zero) && (hi.x - hi.x == zero) && (lo.x <= hi.x));
+  }
 #else
   float x[4];
 
@@ -159,6 +165,12 @@ struct F4 {
   friend F4 max(F4 a, F4 b) noexcept { return map(a, b, [](float u, float v) { return u > v ? u : v; }); }
   void to_int(int32_t* out) const noexcept {
     for (int k = 0; k < 4; ++k) out[k] = int32_t(x[k]);
+  }
+  friend int finite_ordered(F4 lo, F4 hi) noexcept {
+    int m = 0;
+    for (int k = 0; k < 4; ++k)
+      m |= (std::isfinite(lo.x[k]) && std::isfinite(hi.x[k]) && lo.x[k] <= hi.x[k]) << k;
+    return m;
   }
 #endif
 };
@@ -434,8 +446,9 @@ uint32_t build_local(Splitter& s, uint64_t b, uint64_t e, uint32_t depth, Box3 c
     return depth;
   }
   auto const c = uint32_t(nodes.size());
-  nodes.resize(nodes.size() + 2);
-  ranges.resize(ranges.size() + 2);
+  // emplace_back, not resize: resize is an out-of-line call per node pair.
+  nodes.emplace_back(), nodes.emplace_back();
+  ranges.emplace_back(), ranges.emplace_back();
   nodes[self].set_inner(c);
   Bounds4 r;  // set by the callee
   uint32_t const dl = build_local(s, b, sp.m, depth + 1, sp.left, c, nodes, ranges, fit);
@@ -516,20 +529,18 @@ inline void assemble(Subtree& root, std::vector<Node>& nodes, ValueRanges& range
   });
 }
 
-/// Subtrees at most this deep below the root are fitted as parallel tasks.
-inline constexpr uint32_t parallel_fit_depth = 10;
+/// Subtrees this deep below the root are fitted as parallel tasks (64).
+inline constexpr uint32_t parallel_fit_depth = 6;
 
-/// Sets the value range of node `i` and everything below from
-/// `item_range(id)` (a NodeRange per item id); bounds and topology untouched.
-template <class Index, class ItemRange>
-void fit_ranges(Node const* nodes, NodeRange* ranges, ItemRange const& item_range, Index const* items, uint64_t i,
-                uint32_t depth) {
+/// Value range of node `i` from its slots (leaf) or its children's ranges.
+template <class SlotRange>
+inline void fit_node(Node const* nodes, NodeRange* ranges, SlotRange const& slot_range, uint64_t i) {
   Node const& n = nodes[i];
   if (n.is_leaf()) {
     NodeRange r{inf_f, -inf_f};
     uint64_t const first = n.first_item();
     for (uint64_t s = first; s < first + n.item_count(); ++s) {
-      NodeRange const x = item_range(items[s]);
+      NodeRange const x = slot_range(s);
       r.vmin = std::min(r.vmin, x.vmin);
       r.vmax = std::max(r.vmax, x.vmax);
     }
@@ -537,14 +548,41 @@ void fit_ranges(Node const* nodes, NodeRange* ranges, ItemRange const& item_rang
     return;
   }
   uint64_t const l = n.left(), rgt = n.right();
-  if (depth < parallel_fit_depth) {
-    tbb::parallel_invoke([&] { fit_ranges(nodes, ranges, item_range, items, l, depth + 1); },
-                         [&] { fit_ranges(nodes, ranges, item_range, items, rgt, depth + 1); });
-  } else {
-    fit_ranges(nodes, ranges, item_range, items, l, depth + 1);
-    fit_ranges(nodes, ranges, item_range, items, rgt, depth + 1);
-  }
   ranges[i] = {std::min(ranges[l].vmin, ranges[rgt].vmin), std::max(ranges[l].vmax, ranges[rgt].vmax)};
+}
+
+/// One past the last index of the nodes below inner node `i`. Every layout
+/// the builders write (build_local, assemble) puts a node's children and all
+/// their descendants in one block [left(i), end) after it: the children
+/// pair, then the left child's block, then the right child's; so the block
+/// ends where the right child's does, or the left child's when the right one
+/// is a leaf.
+inline uint64_t subtree_end(Node const* nodes, uint64_t i) {
+  for (;;) {
+    uint64_t const l = nodes[i].left(), r = l + 1;
+    if (!nodes[r].is_leaf()) i = r;
+    else if (!nodes[l].is_leaf()) i = l;
+    else return l + 2;
+  }
+}
+
+/// Sets the value range of node `i` and everything below from
+/// `slot_range(s)` (the NodeRange of item-list slot s); bounds and topology
+/// untouched. Below the task depth a subtree is one reverse sweep over its
+/// block of nodes (children come after their parent), no recursion; leaves
+/// cover consecutive slots, so a slot-ordered source is read in order.
+template <class SlotRange>
+void fit_ranges(Node const* nodes, NodeRange* ranges, SlotRange const& slot_range, uint64_t i, uint32_t depth) {
+  Node const& n = nodes[i];
+  if (!n.is_leaf()) {
+    if (depth < parallel_fit_depth) {
+      tbb::parallel_invoke([&] { fit_ranges(nodes, ranges, slot_range, n.left(), depth + 1); },
+                           [&] { fit_ranges(nodes, ranges, slot_range, n.right(), depth + 1); });
+    } else {
+      for (uint64_t k = subtree_end(nodes, i); k-- > n.left();) fit_node(nodes, ranges, slot_range, k);
+    }
+  }
+  fit_node(nodes, ranges, slot_range, i);
 }
 
 }  // namespace detail

