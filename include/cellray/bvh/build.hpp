@@ -152,10 +152,11 @@ inline double seconds_since(std::chrono::steady_clock::time_point t0) {
 template <int N> uint64_t first_bad_cell(CellMesh<N> const& mesh, uint64_t b, uint64_t e) {
   uint64_t const nv = mesh.vertex_count();
   if (mesh.has_32bit_indices() && nv > 0 && nv - 1 <= std::numeric_limits<uint32_t>::max()) {
-    // The common case: one branch-free (vectorised) pass over the ids.
+    // The common case: one branch-free pass over the ids (2 instructions
+    // per id, against 9 per cell through mesh.vertex(); GCC 12 does not
+    // vectorise it). Unsigned id > last as a signed compare after flipping
+    // the sign bits.
     uint32_t const* ids = mesh.indices32();
-    // Unsigned id > last as a signed compare after flipping the sign bits:
-    // SSE2 has only the signed one, so GCC vectorises this form.
     auto const last = int32_t(uint32_t(nv - 1) ^ 0x80000000u);
     int32_t bad = 0;
     for (uint64_t k = b * N; k < e * N; ++k) bad |= int32_t(int32_t(ids[k] ^ 0x80000000u) > last);
