@@ -47,10 +47,12 @@ inline bool broadcast_corners_if_iso(CellMesh<N> const& mesh, uint64_t cell, Iso
     hi = std::max(hi, s[k]);
   }
   if (!isos.overlaps(lo, hi)) return false;
+  int32_t keys[N];  // the canonical corner key of broadcast_corners (64-bit safe)
+  corner_keys<N>(mesh.vertex_count(), v, keys);
   int order[N];
   for (int k = 0; k < N; ++k) order[k] = k;
   if constexpr (N == 4) {
-    auto key = [&](int k) { return int32_t(v[order[k]] & 0x7fffffffu); };
+    auto key = [&](int k) { return keys[order[k]]; };
     auto swap_if = [&](int i, int j) {
       if (key(i) > key(j)) std::swap(order[i], order[j]);
     };
@@ -62,7 +64,7 @@ inline bool broadcast_corners_if_iso(CellMesh<N> const& mesh, uint64_t cell, Iso
     c.y[i] = vfloat<A>(xyz[3 * vi + 1]);
     c.z[i] = vfloat<A>(xyz[3 * vi + 2]);
     c.s[i] = vfloat<A>(s[order[i]]);
-    c.id[i] = vint<A>(int32_t(vi & 0x7fffffffu));
+    c.id[i] = vint<A>(keys[order[i]]);
   }
   return true;
 }
