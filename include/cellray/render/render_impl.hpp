@@ -316,41 +316,61 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
   constexpr int W = width<A>;
   TransferFunction const& tf = *s.tf->tf;
   bool const shade = p.shading.enabled;
-  float const window = s.step * float(p.group_size);
+  // The first window is group_size steps long; each further one twice the
+  // last: a ray still going after a window is likely crossing transparent or
+  // faint material, and every window costs a traversal from the root. The
+  // work past the termination point is at most the last window.
+  float window = s.step * float(p.group_size);
   auto const enter = simd::to_array<A>(t_enter), exit_t = simd::to_array<A>(t_exit);
   auto const dx = simd::to_array<A>(r.dx), dy = simd::to_array<A>(r.dy), dz = simd::to_array<A>(r.dz);
   float col[W][3] = {}, alpha[W] = {}, t_cur[W];
   uint32_t live = simd::movemask(inside);
   for (int l = 0; l < W; ++l) t_cur[l] = enter[l];
+  // Queries are large (max_segments per lane): allocated once per packet, reset per window.
+  bool const single = s.parts.size() == 1;
+  std::unique_ptr<SegmentQuery<A, 4>> tet_query;
+  std::unique_ptr<SegmentQuery<A, 8>> hex_query;
+  std::vector<FieldSegment> lane_segs[W];
   while (live) {
+    if (!single)
+      for (auto& v : lane_segs) v.clear();
     alignas(64) float lo_a[W], hi_a[W];
     for (int l = 0; l < W; ++l) lo_a[l] = t_cur[l], hi_a[l] = t_cur[l] + window;
     vfloat<A> const lo = simd::load<A>(lo_a), hi = simd::load<A>(hi_a);
     vmask<A> const act = simd::mask_from_bits<A>(live);
     float end[W];
     for (int l = 0; l < W; ++l) end[l] = std::min(hi_a[l], exit_t[l]);
-    std::vector<FieldSegment> lane_segs[W];
+    // One part (the common case): integrate straight from the query's sorted
+    // per-lane arrays. Several parts: merge their segments per lane.
+    FieldSegment const* seg_of[W] = {};
+    int seg_count[W] = {};
     for (PreparedPart const& part : s.parts) {
-      auto run = [&](auto const& mesh) {
+      auto run = [&](auto const& mesh, auto& q) {
         constexpr int N = std::decay_t<decltype(mesh)>::corners;
-        auto q = std::make_unique<SegmentQuery<A, N>>(part.tree, mesh, r, s.windows, lo, hi, shade);
+        if (!q) q = std::make_unique<SegmentQuery<A, N>>(part.tree, mesh, r, s.windows, lo, hi, shade);
+        else q->reset(part.tree, mesh, lo, hi);
         collect_segments(*q, act, how, threshold);
         for (int l = 0; l < W; ++l) {
           end[l] = std::min(end[l], q->cut[l]);
-          lane_segs[l].insert(lane_segs[l].end(), q->seg[l], q->seg[l] + q->count[l]);
+          if (single) seg_of[l] = q->seg[l], seg_count[l] = q->count[l];
+          else lane_segs[l].insert(lane_segs[l].end(), q->seg[l], q->seg[l] + q->count[l]);
         }
       };
-      if (part.tets) run(*part.tets);
-      else run(*part.hexes);
+      if (part.tets) run(*part.tets, tet_query);
+      else run(*part.hexes, hex_query);
     }
     uint32_t next = 0;
     for (uint32_t b = live; b; b &= b - 1) {
       int const l = __builtin_ctz(b);
-      auto& segs = lane_segs[l];
-      std::sort(segs.begin(), segs.end(), [](FieldSegment const& x, FieldSegment const& y) { return x.s.t_in < y.s.t_in; });
+      if (!single) {
+        auto& segs = lane_segs[l];
+        std::sort(segs.begin(), segs.end(), [](FieldSegment const& x, FieldSegment const& y) { return x.s.t_in < y.s.t_in; });
+        seg_of[l] = segs.data(), seg_count[l] = int(segs.size());
+      }
       glm::vec3 const dir(dx[size_t(l)], dy[size_t(l)], dz[size_t(l)]);
       float prev = t_cur[l];
-      for (FieldSegment const& fs : segs) {
+      for (int si = 0; si < seg_count[l]; ++si) {
+        FieldSegment const& fs = seg_of[l][si];
         CellSegment const& sg = fs.s;
         float const a = std::max(sg.t_in, prev), e = std::min(sg.t_out, end[l]);
         if (!(e > a)) continue;
@@ -376,6 +396,7 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
       if (alpha[l] < p.termination && t_cur[l] < exit_t[l]) next |= 1u << l;
     }
     live = next;
+    window *= 2.f;
   }
   alignas(64) float o[4][W];
   for (int l = 0; l < W; ++l) o[0][l] = col[l][0], o[1][l] = col[l][1], o[2][l] = col[l][2], o[3][l] = alpha[l];

@@ -61,8 +61,8 @@ struct FieldSegment {
 
 template <class A, int N> struct SegmentQuery {
   static constexpr int W = width<A>;
-  TreeView const& tree;
-  CellMesh<N> const& mesh;
+  TreeView const* tree_;
+  CellMesh<N> const* mesh_;
   RayPacket<A> const& r;
   ValueWindows const& windows;
   vfloat<A> lo, hi;  ///< window per lane
@@ -73,9 +73,18 @@ template <class A, int N> struct SegmentQuery {
 
   SegmentQuery(TreeView const& t, CellMesh<N> const& m, RayPacket<A> const& rays, ValueWindows const& w,
                vfloat<A> const& t_lo, vfloat<A> const& t_hi, bool want_gradients = false)
-      : tree(t), mesh(m), r(rays), windows(w), lo(t_lo), hi(t_hi), gradients(want_gradients) {
+      : tree_(&t), mesh_(&m), r(rays), windows(w), lo(t_lo), hi(t_hi), gradients(want_gradients) {
     for (int l = 0; l < W; ++l) count[l] = 0, cut[l] = std::numeric_limits<float>::infinity();
   }
+
+  /// The same rays, another window (and possibly another part of the same
+  /// cell type): what the constructor does, without a new allocation.
+  void reset(TreeView const& t, CellMesh<N> const& m, vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
+    tree_ = &t, mesh_ = &m, lo = t_lo, hi = t_hi;
+    for (int l = 0; l < W; ++l) count[l] = 0, cut[l] = std::numeric_limits<float>::infinity();
+  }
+  TreeView const& tree() const { return *tree_; }
+  CellMesh<N> const& mesh() const { return *mesh_; }
 
   bool done() const { return false; }
   bool node_relevant(float vmin, float vmax) const { return vmin <= vmax && windows.overlaps(vmin, vmax); }
@@ -113,9 +122,19 @@ template <class A, int N> struct SegmentQuery {
 
   void visit(CellCorners<A, N> const& c, vmask<A> m, vint<A> const& cells) {
     using Ops = CellOps<A, N>;
+    // A cell whose corner values all map to zero opacity is transparent
+    // throughout (tet: linear; hex: trilinear, a convex combination of its
+    // corners), so it is dropped before the clip: empty-space skipping per
+    // cell, not only per node.
+    vfloat<A> vmin = c.s[0], vmax = c.s[0];
+    for (int i = 1; i < N; ++i) vmin = simd::min(vmin, c.s[i]), vmax = simd::max(vmax, c.s[i]);
+    m = m && windows_overlap<A>(windows, vmin, vmax);
+    if (simd::none(m)) return;
     RayBatch<A> const ray = ray_batch(r);
-    typename Ops::Clip const k = Ops::clip(ray, c);
-    m = m && k.hit && !has_nan_value(c) && k.t_out >= lo && k.t_in <= hi;
+    // The window clip: most cells of a leaf miss every lane, and it skips
+    // the face-value interpolation for them (bit-identical where it hits).
+    typename Ops::Clip const k = Ops::clip_window(ray, c, m, lo, hi);
+    m = k.hit && !has_nan_value(c);
     uint32_t const mb = simd::movemask(m);
     if (!mb) return;
     vfloat<A> const zero(0.f);
@@ -167,13 +186,13 @@ template <class A, int N> struct SegmentQuery {
 
   void leaf(uint64_t first, uint32_t n, vmask<A> const& m) {
     for (uint64_t i = first; i < first + n; ++i) {
-      uint64_t const cell = tree.item(i);
-      visit(broadcast_corners<A, N>(mesh, cell), m, vint<A>(int32_t(cell)));
+      uint64_t const cell = tree_->item(i);
+      visit(broadcast_corners<A, N>(*mesh_, cell), m, vint<A>(int32_t(cell)));
     }
   }
   void leaf_items(vint<A> const& slots, vmask<A> const& m) {
-    vint<A> const cv = slot_cells<A>(tree, slots, m);
-    visit(gather_corners<A, N>(mesh, cv, m), m, cv);
+    vint<A> const cv = slot_cells<A>(*tree_, slots, m);
+    visit(gather_corners<A, N>(*mesh_, cv, m), m, cv);
   }
 
   /// Sorts each lane's segments front to back.
@@ -186,9 +205,9 @@ template <class A, int N> struct SegmentQuery {
 template <class A, int N>
 inline void collect_segments(SegmentQuery<A, N>& q, vmask<A> const& active, Traversal how, int threshold) {
   switch (how) {
-    case Traversal::packet: traverse_packet<A>(q.tree, q.r, active, q); break;
-    case Traversal::hybrid: traverse_packet<A>(q.tree, q.r, active, q, 0, threshold); break;
-    case Traversal::spmd: traverse_spmd<A>(q.tree, q.r, active, q); break;
+    case Traversal::packet: traverse_packet<A>(q.tree(), q.r, active, q); break;
+    case Traversal::hybrid: traverse_packet<A>(q.tree(), q.r, active, q, 0, threshold); break;
+    case Traversal::spmd: traverse_spmd<A>(q.tree(), q.r, active, q); break;
   }
   q.sort();
 }
