@@ -374,7 +374,7 @@ void add_options(CLI::App& app, Options& o) {
       ->check(CLI::PositiveNumber);
   app.add_option("--step", o.step,
                  "DVR step, world units: sample spacing, or the longest integration piece of a cell segment "
-                 "(default: scene diagonal / 500)")
+                 "(default: scene diagonal / 250 for segments, / 500 for samples)")
       ->check(CLI::PositiveNumber);
   app.add_option("--dvr-mode", o.dvr_mode,
                  "DVR by exact cell segments (default: faster and more accurate, docs/accuracy.md) or point samples")
@@ -784,7 +784,7 @@ int run(Options const& o) {
     j["mode"] = o.mode;
     if (o.mode == "dvr") {
       j["dvr_mode"] = o.dvr_mode;
-      j["dvr_step"] = dp.step > 0.f ? dp.step : diagonal / 500.f;
+      j["dvr_step"] = dp.step > 0.f ? dp.step : default_dvr_step(dp.mode, diagonal);
       j["dvr_shading"] = o.dvr_shading;
     }
     j["array"] = array;

@@ -3,8 +3,10 @@
 // of one cell per lane (the same cell in every lane for packet traversal, a
 // different cell per lane for SPMD traversal), with loaders for both.
 
+#include <algorithm>
 #include <cstdint>
 #include <limits>
+#include <utility>
 
 #include "../mesh/cell_mesh.hpp"
 #include "../simd/batch.hpp"
@@ -110,25 +112,67 @@ template <class A> inline void sort_tet_corners(CellCorners<A, 4>& c) {
 
 }  // namespace detail
 
-/// The corners of `cell` in every lane (packet traversal). No range check.
-template <class A, int N> inline CellCorners<A, N> broadcast_corners(CellMesh<N> const& mesh, uint64_t cell) {
+/// One cell's corners as read by packet traversal before it broadcasts
+/// them: vertex ids, values (NaN when the mesh has none) and ordering keys,
+/// tets in canonical order (sorted by key with sort_tet_corners' network, so
+/// the same order). Scalar, so a leaf can reject a cell on its values before
+/// loading positions or sorting five vectors.
+template <int N> struct ScalarCorners {
+  uint64_t v[N];
+  float s[N];
+  int32_t key[N];
+  float lo, hi;  ///< value range of the corners; NaN if any value is NaN
+};
+
+/// Reads ids and values of `cell` (not yet ordered). No range check.
+template <int N> inline void read_corner_values(CellMesh<N> const& mesh, uint64_t cell, ScalarCorners<N>& k) {
+  float const* val = mesh.values();
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  bool nan = false;
+  for (int i = 0; i < N; ++i) {
+    k.v[i] = mesh.vertex(cell, i);
+    k.s[i] = val ? val[k.v[i]] : std::numeric_limits<float>::quiet_NaN();
+    nan = nan || !(k.s[i] == k.s[i]);
+    lo = std::min(lo, k.s[i]);
+    hi = std::max(hi, k.s[i]);
+  }
+  k.lo = nan ? std::numeric_limits<float>::quiet_NaN() : lo;
+  k.hi = nan ? std::numeric_limits<float>::quiet_NaN() : hi;
+}
+
+/// Computes the keys (corner_keys) and, for tets, puts the corners in
+/// canonical order.
+template <int N> inline void order_corners(uint64_t vertex_count, ScalarCorners<N>& k) {
+  corner_keys<N>(vertex_count, k.v, k.key);
+  if constexpr (N == 4) {
+    auto swap_if = [&k](int i, int j) {
+      if (k.key[i] > k.key[j]) std::swap(k.v[i], k.v[j]), std::swap(k.s[i], k.s[j]), std::swap(k.key[i], k.key[j]);
+    };
+    swap_if(0, 1), swap_if(2, 3), swap_if(0, 2), swap_if(1, 3), swap_if(1, 2);
+  }
+}
+
+/// The ordered corners `k` in every lane, with their positions.
+template <class A, int N> inline CellCorners<A, N> broadcast(CellMesh<N> const& mesh, ScalarCorners<N> const& k) {
   CellCorners<A, N> c;
   float const* xyz = mesh.positions();
-  float const* val = mesh.values();
-  uint64_t vs[N];
-  int32_t key[N];
-  for (int i = 0; i < N; ++i) vs[i] = mesh.vertex(cell, i);
-  corner_keys<N>(mesh.vertex_count(), vs, key);
   for (int i = 0; i < N; ++i) {
-    uint64_t const v = vs[i];
-    c.x[i] = vfloat<A>(xyz[3 * v]);
-    c.y[i] = vfloat<A>(xyz[3 * v + 1]);
-    c.z[i] = vfloat<A>(xyz[3 * v + 2]);
-    c.s[i] = vfloat<A>(val ? val[v] : std::numeric_limits<float>::quiet_NaN());
-    c.id[i] = vint<A>(key[i]);
+    float const* q = xyz + 3 * k.v[i];
+    c.x[i] = vfloat<A>(q[0]);
+    c.y[i] = vfloat<A>(q[1]);
+    c.z[i] = vfloat<A>(q[2]);
+    c.s[i] = vfloat<A>(k.s[i]);
+    c.id[i] = vint<A>(k.key[i]);
   }
-  if constexpr (N == 4) detail::sort_tet_corners(c);
   return c;
+}
+
+/// The corners of `cell` in every lane (packet traversal). No range check.
+template <class A, int N> inline CellCorners<A, N> broadcast_corners(CellMesh<N> const& mesh, uint64_t cell) {
+  ScalarCorners<N> k;
+  read_corner_values(mesh, cell, k);
+  order_corners(mesh.vertex_count(), k);
+  return broadcast<A, N>(mesh, k);
 }
 
 /// The corners of `cells[i]` in lane i (SPMD traversal). Inactive lanes load

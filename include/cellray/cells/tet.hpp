@@ -159,103 +159,91 @@ inline CellIsoHit<A> neubauer_crossings(CellClip<A> const& clip, vmask<A> const&
 
 }  // namespace detail
 
-/// Ray clip against one tet per lane: four planes (paper Fig. 5, first
-/// loop). Entry is the largest t of the planes the ray enters through, exit
-/// the smallest t of those it leaves through; a ray parallel to a face plane
-/// (dot(n, dir) == 0 exactly) misses when its origin lies outside that plane.
-/// The interval is on the full line (t may be negative). Zero-volume tets
-/// never hit. No NaN reaches t_in/t_out of a hit lane.
-template <class A> inline CellClip<A> clip_tet(RayBatch<A> const& ray, CellCorners<A, 4> const& c) {
-  constexpr float inf = std::numeric_limits<float>::infinity();
-  vfloat<A> const zero(0.f);
-  Vec3<A> const o = ray.origin(), d = ray.dir();
-  CellClip<A> r;
-  r.t_in = vfloat<A>(-inf), r.t_out = vfloat<A>(inf);
-  r.s_in = vfloat<A>(0.f), r.s_out = vfloat<A>(0.f);
-  vmask<A> ok(true);
-  for (int f = 0; f < 4; ++f) {
-    detail::TetFace<A> const F = detail::tet_face(c, f);
-    vfloat<A> const num = dot(F.n, F.a - o);
-    vfloat<A> const den = dot(F.n, d);
-    vfloat<A> const t = num / den;
-    // The value where the line crosses the plane, from this face's corners only.
-    Vec3<A> const rel = (o + t * d) - F.a;
-    vfloat<A> const nn = dot(F.n, F.n);
-    vfloat<A> const beta = dot(cross(rel, F.e2), F.n) / nn;
-    vfloat<A> const gamma = dot(cross(F.e1, rel), F.n) / nn;
-    vfloat<A> const sa = c.s[detail::tet_faces[f][0]];
-    vfloat<A> const s = sa + beta * (c.s[detail::tet_faces[f][1]] - sa) + gamma * (c.s[detail::tet_faces[f][2]] - sa);
-    vmask<A> const pos = F.side > zero;
-    vmask<A> const neg = F.side < zero;
-    vmask<A> const enter = (den > zero && pos) || (den < zero && neg);
-    vmask<A> const leave = (den > zero && neg) || (den < zero && pos);
-    vmask<A> const inside_plane = (pos && num <= zero) || (neg && num >= zero);
-    ok = ok && (pos || neg) && !(den == zero && !inside_plane);
-    vmask<A> const new_in = enter && t > r.t_in;
-    vmask<A> const new_out = leave && t < r.t_out;
-    r.t_in = simd::select(new_in, t, r.t_in);
-    r.s_in = simd::select(new_in, s, r.s_in);
-    r.t_out = simd::select(new_out, t, r.t_out);
-    r.s_out = simd::select(new_out, s, r.s_out);
-  }
-  r.hit = ok && r.t_in < r.t_out;
-  return r;
-}
-
 /// clip_tet for the lanes in `lanes` whose interval meets [t_lo, t_hi]
-/// (per lane): `hit` is clip_tet's hit && lanes && t_out >= t_lo && t_in <=
-/// t_hi, and in those lanes t_in, t_out, s_in, s_out are bit-identical to
-/// clip_tet's (same expressions in the same order, so the watertight face
-/// model holds across both). Why it exists: most cells a packet reaches in a
-/// BVH leaf are missed by every lane, and the face-value interpolation is
-/// half of clip_tet's work; it is done only when some lane survives the
-/// plane tests.
+/// (per lane): `hit` = the line crosses the cell && lanes && t_out >= t_lo &&
+/// t_in <= t_hi; t_in, t_out, s_in, s_out are meaningful in hit lanes only.
+/// Four planes (paper Fig. 5, first loop): entry is the largest t of the
+/// planes the ray enters through, exit the smallest t of those it leaves
+/// through; a ray parallel to a face plane (dot(n, dir) == 0 exactly) misses
+/// when its origin lies outside that plane. The interval is on the full
+/// line (t may be negative). Zero-volume tets never hit. No NaN reaches
+/// t_in/t_out of a hit lane.
+///
+/// Cost (the hottest code of both renderers): each face's plane is set up
+/// once and kept for the face values; the cell's orientation is one
+/// determinant; the face-value interpolation runs only for faces some hit
+/// lane enters or leaves through, and not at all when every lane misses
+/// (most cells a packet reaches in a BVH leaf).
 template <class A>
 inline CellClip<A> clip_tet_window(RayBatch<A> const& ray, CellCorners<A, 4> const& c, vmask<A> const& lanes,
                                    vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
   constexpr float inf = std::numeric_limits<float>::infinity();
   vfloat<A> const zero(0.f);
   Vec3<A> const o = ray.origin(), d = ray.dir();
+  Vec3<A> const p[4] = {c.p(0), c.p(1), c.p(2), c.p(3)};
+  // Face f = the corners other than f, in ascending stored order
+  // (detail::tet_faces): edges from its first corner and normal e1 x e2.
+  Vec3<A> const e01 = p[1] - p[0], e02 = p[2] - p[0], e03 = p[3] - p[0];
+  Vec3<A> const e1[4] = {p[2] - p[1], e02, e01, e01}, e2[4] = {p[3] - p[1], e03, e03, e02};
+  Vec3<A> n[4];
+  for (int f = 0; f < 4; ++f) n[f] = cross(e1[f], e2[f]);
+  // 6 x signed volume. The cell lies on the side n[3] points to when it is
+  // positive; faces 1 and 3 share that orientation, 0 and 2 are reversed
+  // (odd permutations of the corners), so one sign orients all four planes
+  // into the cell.
+  vfloat<A> const det = dot(n[3], e03);
+  vmask<A> const pos = det > zero;
+  vmask<A> ok = lanes && (pos || det < zero);
+  vfloat<A> const in_sign = simd::select(pos, vfloat<A>(1.f), vfloat<A>(-1.f));
+  vfloat<A> const sgn[4] = {-in_sign, in_sign, -in_sign, in_sign};
   CellClip<A> r;
   r.t_in = vfloat<A>(-inf), r.t_out = vfloat<A>(inf);
-  vmask<A> ok = lanes;
   vfloat<A> t[4];
   vmask<A> new_in[4], new_out[4];
   for (int f = 0; f < 4; ++f) {
-    detail::TetFace<A> const F = detail::tet_face(c, f);
-    // num and den taken with the normal pointing into the cell (times +-1:
-    // exact, so t = num / den keeps clip_tet's bits): entering is den > 0,
-    // leaving den < 0, and "origin inside the plane" num <= 0, which spares
-    // clip_tet's side-dependent masks (and the slow mask negations).
-    vmask<A> const pos = F.side > zero;
-    ok = ok && (pos || F.side < zero);
-    vfloat<A> const sgn = simd::select(pos, vfloat<A>(1.f), vfloat<A>(-1.f));
-    vfloat<A> const num = dot(F.n, F.a - o) * sgn;
-    vfloat<A> const den = dot(F.n, d) * sgn;
+    Vec3<A> const& a = p[detail::tet_faces[f][0]];
+    // num and den with the normal pointing into the cell (times +-1: exact,
+    // so both cells of a shared face get the same |t| bits): entering is
+    // den > 0, leaving den < 0, origin inside the plane num <= 0.
+    vfloat<A> const num = dot(n[f], a - o) * sgn[f];
+    vfloat<A> const den = dot(n[f], d) * sgn[f];
     t[f] = num / den;
-    vmask<A> const enter = den > zero, leave = den < zero;
     // Parallel to the plane (den == 0 exactly) and outside it: no interval.
     ok = ok && simd::select(den == zero, num, zero) <= zero;
-    new_in[f] = enter && t[f] > r.t_in;
-    new_out[f] = leave && t[f] < r.t_out;
+    new_in[f] = den > zero && t[f] > r.t_in;
+    new_out[f] = den < zero && t[f] < r.t_out;
     r.t_in = simd::select(new_in[f], t[f], r.t_in);
     r.t_out = simd::select(new_out[f], t[f], r.t_out);
   }
   r.hit = ok && r.t_in < r.t_out && r.t_out >= t_lo && r.t_in <= t_hi;
   r.s_in = zero, r.s_out = zero;
   if (simd::none(r.hit)) return r;
-  for (int f = 0; f < 4; ++f) {
-    detail::TetFace<A> const F = detail::tet_face(c, f);
-    Vec3<A> const rel = (o + t[f] * d) - F.a;
-    vfloat<A> const nn = dot(F.n, F.n);
-    vfloat<A> const beta = dot(cross(rel, F.e2), F.n) / nn;
-    vfloat<A> const gamma = dot(cross(F.e1, rel), F.n) / nn;
+  // The face each lane finally enters (leaves) through: the last one that
+  // raised t_in (lowered t_out).
+  vmask<A> in_taken = !r.hit, out_taken = !r.hit;
+  for (int f = 3; f >= 0; --f) {
+    vmask<A> const is_in = new_in[f] && !in_taken, is_out = new_out[f] && !out_taken;
+    in_taken = in_taken || new_in[f], out_taken = out_taken || new_out[f];
+    if (simd::none(is_in || is_out)) continue;
+    // The value where the line crosses the plane, from this face's corners only.
+    Vec3<A> const& a = p[detail::tet_faces[f][0]];
+    Vec3<A> const rel = (o + t[f] * d) - a;
+    vfloat<A> const nn = dot(n[f], n[f]);
+    vfloat<A> const beta = dot(cross(rel, e2[f]), n[f]) / nn;
+    vfloat<A> const gamma = dot(cross(e1[f], rel), n[f]) / nn;
     vfloat<A> const sa = c.s[detail::tet_faces[f][0]];
     vfloat<A> const s = sa + beta * (c.s[detail::tet_faces[f][1]] - sa) + gamma * (c.s[detail::tet_faces[f][2]] - sa);
-    r.s_in = simd::select(new_in[f], s, r.s_in);
-    r.s_out = simd::select(new_out[f], s, r.s_out);
+    r.s_in = simd::select(is_in, s, r.s_in);
+    r.s_out = simd::select(is_out, s, r.s_out);
   }
   return r;
+}
+
+/// Ray clip against one tet per lane (see clip_tet_window, with every lane
+/// and the whole line).
+template <class A> inline CellClip<A> clip_tet(RayBatch<A> const& ray, CellCorners<A, 4> const& c) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  return clip_tet_window(ray, c, vmask<A>(true), vfloat<A>(-inf), vfloat<A>(inf));
 }
 
 /// The tet's linear interpolant at `p`, extrapolated outside the cell.

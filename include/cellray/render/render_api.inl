@@ -117,11 +117,13 @@ inline PreparedTf tf_table(TransferFunction const& tf, float step) {
   t.lo = tf.values.front();
   float const hi = tf.values.size() > 1 ? tf.values.back() : t.lo + 1.f;
   t.scale = float(size - 1) / (hi - t.lo);
-  t.r.resize(size), t.g.resize(size), t.b.resize(size), t.a.resize(size);
+  t.r.resize(size), t.g.resize(size), t.b.resize(size), t.a.resize(size), t.log_transmittance.resize(size);
   for (int i = 0; i < size; ++i) {
     glm::vec4 const c = tf(t.lo + float(i) / t.scale);
     t.r[size_t(i)] = c.r, t.g[size_t(i)] = c.g, t.b[size_t(i)] = c.b;
-    t.a[size_t(i)] = 1.f - std::pow(1.f - std::min(c.a, 0.999999f), step / tf.unit_distance);
+    float const keep = 1.f - std::min(c.a, 0.999999f);  // fraction of light let through per unit distance
+    t.a[size_t(i)] = 1.f - std::pow(keep, step / tf.unit_distance);
+    t.log_transmittance[size_t(i)] = std::log(keep) / tf.unit_distance;
   }
   return t;
 }
@@ -164,7 +166,7 @@ inline void prepare_dvr(Scene const& scene, DvrParams const& p, DvrSetup& out) {
     throw InvalidArgument("sample group size " + std::to_string(p.group_size) + " outside 1..32");
   if (!(p.termination > 0.f && p.termination <= 1.f)) throw InvalidArgument("termination opacity must be in (0, 1]");
   out.scene = prepare(scene);
-  float const step = p.step > 0.f ? p.step : out.scene.diagonal / 500.f;
+  float const step = p.step > 0.f ? p.step : default_dvr_step(p.mode, out.scene.diagonal);
   if (!std::isfinite(step) || !(step > 0.f)) throw InvalidArgument("DVR step must be positive and finite");
   if (out.scene.diagonal / step > 1e7f) throw InvalidArgument("DVR step too small for the scene (over 10^7 samples per ray)");
   out.scene.step = step;

@@ -25,6 +25,9 @@ struct PreparedPart {
 /// sample spacing (DVR samples mode), plus its raw form for cell segments.
 struct PreparedTf {
   std::vector<float> r, g, b, a;  ///< `size` entries over [lo, lo + (size - 1) / scale]
+  /// Per entry ln(1 - opacity) / unit distance (<= 0): a piece of length d
+  /// has opacity 1 - exp(d * this) (cell segments: pieces of any length).
+  std::vector<float> log_transmittance;
   float lo = 0.f, scale = 1.f;
   TransferFunction const* tf = nullptr;
 };

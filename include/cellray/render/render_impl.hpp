@@ -314,7 +314,9 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
                         vfloat<A> const& t_enter, vfloat<A> const& t_exit, DvrParams const& p, Traversal how,
                         int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca) {
   constexpr int W = width<A>;
-  TransferFunction const& tf = *s.tf->tf;
+  PreparedTf const& ptf = *s.tf;
+  float const last_entry = float(ptf.r.size() - 1) - 1e-3f;
+  auto lerp_entry = [](std::vector<float> const& t, int i, float f) { return t[size_t(i)] + f * (t[size_t(i) + 1] - t[size_t(i)]); };
   bool const shade = p.shading.enabled;
   // The first window is group_size steps long; each further one twice the
   // last: a ray still going after a window is likely crossing transparent or
@@ -367,6 +369,15 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
         std::sort(segs.begin(), segs.end(), [](FieldSegment const& x, FieldSegment const& y) { return x.s.t_in < y.s.t_in; });
         seg_of[l] = segs.data(), seg_count[l] = int(segs.size());
       }
+      if (!(end[l] > t_cur[l])) {
+        // More than max_segments cells overlap the ray at t_cur (only
+        // overlapping or duplicated cells do that): go on to the nearest end
+        // of a kept segment past t_cur, so every window makes progress.
+        float e = std::min(hi_a[l], exit_t[l]);
+        for (int si = 0; si < seg_count[l]; ++si)
+          if (seg_of[l][si].s.t_out > t_cur[l]) e = std::min(e, seg_of[l][si].s.t_out);
+        end[l] = e;
+      }
       glm::vec3 const dir(dx[size_t(l)], dy[size_t(l)], dz[size_t(l)]);
       float prev = t_cur[l];
       for (int si = 0; si < seg_count[l]; ++si) {
@@ -378,14 +389,22 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
         float const d = (e - a) / float(pieces);
         for (int i = 0; i < pieces && alpha[l] < p.termination; ++i) {
           float const lam = fs.lambda(a + (float(i) + 0.5f) * d);
-          glm::vec4 c = tf(fs.value_at(lam));
-          if (!(c.a > 0.f)) continue;
+          // The transfer function from the table (4096 entries, linear in
+          // between, as the samples use): colour and ln(transmittance) per
+          // unit length, so a piece of any length costs one exp.
+          float const x = std::min(std::max((fs.value_at(lam) - ptf.lo) * ptf.scale, 0.f), last_entry);
+          if (!(x == x)) continue;
+          int const e0 = int(x);
+          float const f = x - float(e0);
+          float const lt = lerp_entry(ptf.log_transmittance, e0, f);
+          if (!(lt < 0.f)) continue;  // transparent
+          glm::vec3 c(lerp_entry(ptf.r, e0, f), lerp_entry(ptf.g, e0, f), lerp_entry(ptf.b, e0, f));
           if (shade) {
             float g[3];
             fs.gradient_at(lam, g);
             shade_color(p.shading, s.inv_gradient_full, g, dir, c.r, c.g, c.b);
           }
-          float const ad = 1.f - std::pow(1.f - std::min(c.a, 0.999999f), d / tf.unit_distance);
+          float const ad = 1.f - std::exp(lt * d);
           float const w = std::min((1.f - alpha[l]) * ad, p.termination - alpha[l]);  // exact termination
           col[l][0] += w * c.r, col[l][1] += w * c.g, col[l][2] += w * c.b;
           alpha[l] += w;

@@ -56,6 +56,22 @@ template <class A> struct CellOps<A, 8> {
   }
 };
 
+/// Lanes whose ray meets the cell's bounding box within [t_lo, t_hi]: a
+/// cheap cull before a clip, conservative like the BVH node test (same
+/// box_hit_varying).
+template <class A, int N>
+inline vmask<A> cell_box_hit(RayPacket<A> const& r, CellCorners<A, N> const& c, vfloat<A> const& t_lo,
+                             vfloat<A> const& t_hi) {
+  vfloat<A> lo[3] = {c.x[0], c.y[0], c.z[0]}, hi[3] = {c.x[0], c.y[0], c.z[0]};
+  for (int k = 1; k < N; ++k) {
+    lo[0] = simd::min(lo[0], c.x[k]), hi[0] = simd::max(hi[0], c.x[k]);
+    lo[1] = simd::min(lo[1], c.y[k]), hi[1] = simd::max(hi[1], c.y[k]);
+    lo[2] = simd::min(lo[2], c.z[k]), hi[2] = simd::max(hi[2], c.z[k]);
+  }
+  vfloat<A> tn;
+  return box_hit_varying(r, lo, hi, t_lo, t_hi, tn);
+}
+
 /// Nearest crossing of any isovalue with t in [t_lo, t_hi] (per lane) in one
 /// cell per lane. When the cell's interval pokes out of the window (a ray
 /// continuing behind a transparent surface, or the current nearest hit), the

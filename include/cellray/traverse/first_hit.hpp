@@ -26,46 +26,17 @@ template <class A> struct HitPacket {
 };
 
 /// broadcast_corners<A, N>(mesh, cell) into `c` when the cell's value range
-/// holds an isovalue (no NaN corner value), else false and `c` untouched.
-/// Reads each index and value once, and orders tet corners with a scalar
-/// sorting network on the vertex ids (the same network and key as
-/// detail::sort_tet_corners, so the same corner order) before broadcasting,
-/// instead of sorting five vectors. `mesh` must have values.
+/// holds an isovalue (no NaN corner value), else false and `c` untouched:
+/// the values are read and tested before positions are loaded or corners
+/// ordered. `mesh` must have values.
 template <class A, int N>
 inline bool broadcast_corners_if_iso(CellMesh<N> const& mesh, uint64_t cell, IsoSet const& isos,
                                      CellCorners<A, N>& c) {
-  float const* xyz = mesh.positions();
-  float const* val = mesh.values();
-  uint64_t v[N];
-  float s[N];
-  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-  for (int k = 0; k < N; ++k) {
-    v[k] = mesh.vertex(cell, k);
-    s[k] = val[v[k]];
-    if (!(s[k] == s[k])) return false;
-    lo = std::min(lo, s[k]);
-    hi = std::max(hi, s[k]);
-  }
-  if (!isos.overlaps(lo, hi)) return false;
-  int32_t keys[N];  // the canonical corner key of broadcast_corners (64-bit safe)
-  corner_keys<N>(mesh.vertex_count(), v, keys);
-  int order[N];
-  for (int k = 0; k < N; ++k) order[k] = k;
-  if constexpr (N == 4) {
-    auto key = [&](int k) { return keys[order[k]]; };
-    auto swap_if = [&](int i, int j) {
-      if (key(i) > key(j)) std::swap(order[i], order[j]);
-    };
-    swap_if(0, 1), swap_if(2, 3), swap_if(0, 2), swap_if(1, 3), swap_if(1, 2);
-  }
-  for (int i = 0; i < N; ++i) {
-    uint64_t const vi = v[order[i]];
-    c.x[i] = vfloat<A>(xyz[3 * vi]);
-    c.y[i] = vfloat<A>(xyz[3 * vi + 1]);
-    c.z[i] = vfloat<A>(xyz[3 * vi + 2]);
-    c.s[i] = vfloat<A>(s[order[i]]);
-    c.id[i] = vint<A>(keys[order[i]]);
-  }
+  ScalarCorners<N> k;
+  read_corner_values(mesh, cell, k);
+  if (!isos.overlaps(k.lo, k.hi)) return false;  // false for NaN
+  order_corners(mesh.vertex_count(), k);
+  c = broadcast<A, N>(mesh, k);
   return true;
 }
 
@@ -94,25 +65,12 @@ template <class A, int N> struct FirstHitQuery {
     hit.item = simd::select(simd::to_int_mask(f), slot, hit.item);
   }
 
-  /// Slab test of the lanes against the cell's bounding box: a cheap cull
-  /// before the clip, conservative like the BVH node test (same box_hit).
-  bool cell_box_hit(CellCorners<A, N> const& c, vmask<A> const& m) const {
-    vfloat<A> lo[3] = {c.x[0], c.y[0], c.z[0]}, hi[3] = {c.x[0], c.y[0], c.z[0]};
-    for (int k = 1; k < N; ++k) {
-      lo[0] = simd::min(lo[0], c.x[k]), hi[0] = simd::max(hi[0], c.x[k]);
-      lo[1] = simd::min(lo[1], c.y[k]), hi[1] = simd::max(hi[1], c.y[k]);
-      lo[2] = simd::min(lo[2], c.z[k]), hi[2] = simd::max(hi[2], c.z[k]);
-    }
-    vfloat<A> tn;
-    return simd::any(m && box_hit_varying(r, lo, hi, r.tmin, hit.t, tn));
-  }
-
   void leaf(uint64_t first, uint32_t count, vmask<A> const& m) {
     if (!mesh.values()) return;  // NaN everywhere: no cell can hold a crossing
     for (uint64_t i = first; i < first + count; ++i) {
       CellCorners<A, N> c;
       if (!broadcast_corners_if_iso<A, N>(mesh, tree.item(i), isos, c)) continue;
-      if (!cell_box_hit(c, m)) continue;
+      if (simd::none(m && cell_box_hit<A, N>(r, c, r.tmin, hit.t))) continue;
       CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method);
       if (simd::any(h.hit)) update(h.hit, h.t, h.iso_index, vint<A>(int32_t(i)));
     }

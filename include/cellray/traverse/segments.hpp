@@ -92,7 +92,9 @@ template <class A, int N> struct SegmentQuery {
   vfloat<A> t_lo() const { return lo; }
   vfloat<A> t_hi() const { return hi; }
 
-  /// Keeps the `max_segments` segments with the smallest t_in per lane.
+  /// Keeps the `max_segments` segments with the smallest t_in per lane;
+  /// `cut` becomes the smallest t_in of those dropped, so every segment with
+  /// t_in < cut is kept (arrival order is the traversal's, not t's).
   void add(int l, FieldSegment const& s) {
     if (s.s.t_in >= cut[l]) return;
     if (count[l] < max_segments) {
@@ -102,8 +104,8 @@ template <class A, int N> struct SegmentQuery {
     int far = 0;
     for (int i = 1; i < max_segments; ++i)
       if (seg[l][i].s.t_in > seg[l][far].s.t_in) far = i;
-    float const dropped = std::min(s.s.t_in, seg[l][far].s.t_in);
-    if (s.s.t_in < seg[l][far].s.t_in) seg[l][far] = s;
+    float dropped = s.s.t_in;
+    if (s.s.t_in < seg[l][far].s.t_in) dropped = seg[l][far].s.t_in, seg[l][far] = s;
     cut[l] = std::min(cut[l], dropped);
   }
 
@@ -120,16 +122,10 @@ template <class A, int N> struct SegmentQuery {
     return detail::trilerp<A>(c.s, u);
   }
 
+  /// `m`: the lanes whose window may cross the cell (its value range is
+  /// visible there; see leaf and leaf_items).
   void visit(CellCorners<A, N> const& c, vmask<A> m, vint<A> const& cells) {
     using Ops = CellOps<A, N>;
-    // A cell whose corner values all map to zero opacity is transparent
-    // throughout (tet: linear; hex: trilinear, a convex combination of its
-    // corners), so it is dropped before the clip: empty-space skipping per
-    // cell, not only per node.
-    vfloat<A> vmin = c.s[0], vmax = c.s[0];
-    for (int i = 1; i < N; ++i) vmin = simd::min(vmin, c.s[i]), vmax = simd::max(vmax, c.s[i]);
-    m = m && windows_overlap<A>(windows, vmin, vmax);
-    if (simd::none(m)) return;
     RayBatch<A> const ray = ray_batch(r);
     // The window clip: most cells of a leaf miss every lane, and it skips
     // the face-value interpolation for them (bit-identical where it hits).
@@ -184,15 +180,31 @@ template <class A, int N> struct SegmentQuery {
     }
   }
 
+  // A cell whose corner values all map to zero opacity is transparent
+  // throughout (tet: linear; hex: trilinear, a convex combination of its
+  // corners), so it is dropped before the clip: empty-space skipping per
+  // cell, not only per node. Packet leaves test it on the scalar values
+  // before loading positions, then cull on the cell's box (most cells of a
+  // leaf the packet reaches are missed by every lane).
   void leaf(uint64_t first, uint32_t n, vmask<A> const& m) {
     for (uint64_t i = first; i < first + n; ++i) {
       uint64_t const cell = tree_->item(i);
-      visit(broadcast_corners<A, N>(*mesh_, cell), m, vint<A>(int32_t(cell)));
+      ScalarCorners<N> k;
+      read_corner_values(*mesh_, cell, k);
+      if (!windows.overlaps(k.lo, k.hi)) continue;  // false for NaN
+      order_corners(mesh_->vertex_count(), k);
+      CellCorners<A, N> const c = broadcast<A, N>(*mesh_, k);
+      vmask<A> const in_box = m && cell_box_hit<A, N>(r, c, lo, hi);
+      if (simd::any(in_box)) visit(c, in_box, vint<A>(int32_t(cell)));
     }
   }
   void leaf_items(vint<A> const& slots, vmask<A> const& m) {
     vint<A> const cv = slot_cells<A>(*tree_, slots, m);
-    visit(gather_corners<A, N>(*mesh_, cv, m), m, cv);
+    CellCorners<A, N> const c = gather_corners<A, N>(*mesh_, cv, m);
+    vfloat<A> vmin = c.s[0], vmax = c.s[0];
+    for (int i = 1; i < N; ++i) vmin = simd::min(vmin, c.s[i]), vmax = simd::max(vmax, c.s[i]);
+    vmask<A> const visible = m && windows_overlap<A>(windows, vmin, vmax);
+    if (simd::any(visible)) visit(c, visible, cv);
   }
 
   /// Sorts each lane's segments front to back.
