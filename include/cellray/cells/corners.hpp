@@ -125,7 +125,7 @@ template <int N> struct ScalarCorners {
 };
 
 /// Reads ids and values of `cell` (not yet ordered). No range check.
-template <int N> inline void read_corner_values(CellMesh<N> const& mesh, uint64_t cell, ScalarCorners<N>& k) {
+template <int N> CELLRAY_FORCE_INLINE void read_corner_values(CellMesh<N> const& mesh, uint64_t cell, ScalarCorners<N>& k) {
   float const* val = mesh.values();
   float lo = std::numeric_limits<float>::infinity(), hi = -lo;
   bool nan = false;
@@ -142,7 +142,7 @@ template <int N> inline void read_corner_values(CellMesh<N> const& mesh, uint64_
 
 /// Computes the keys (corner_keys) and, for tets, puts the corners in
 /// canonical order.
-template <int N> inline void order_corners(uint64_t vertex_count, ScalarCorners<N>& k) {
+template <int N> CELLRAY_FORCE_INLINE void order_corners(uint64_t vertex_count, ScalarCorners<N>& k) {
   corner_keys<N>(vertex_count, k.v, k.key);
   if constexpr (N == 4) {
     auto swap_if = [&k](int i, int j) {
@@ -153,7 +153,8 @@ template <int N> inline void order_corners(uint64_t vertex_count, ScalarCorners<
 }
 
 /// The ordered corners `k` in every lane, with their positions.
-template <class A, int N> inline CellCorners<A, N> broadcast(CellMesh<N> const& mesh, ScalarCorners<N> const& k) {
+template <class A, int N>
+CELLRAY_FORCE_INLINE CellCorners<A, N> broadcast(CellMesh<N> const& mesh, ScalarCorners<N> const& k) {
   CellCorners<A, N> c;
   float const* xyz = mesh.positions();
   for (int i = 0; i < N; ++i) {

@@ -28,24 +28,46 @@ namespace impl {
 template <class A> inline constexpr int block_w = width<A> >= 8 ? 4 : width<A> == 4 ? 2 : 1;
 template <class A> inline constexpr int block_h = width<A> / block_w<A>;
 
-/// Primary rays of the pixel block at (bx, by), clipped to the tile.
+/// Primary rays of the pixel block at (bx, by), clipped to the tile: the
+/// directions of Camera::direction (same expressions), normalized, all
+/// lanes at once.
 template <class A>
 inline RayPacket<A> camera_packet(Camera const& cam, Tile const& tile, int bx, int by, int (&px)[width<A>],
                                   int (&py)[width<A>], uint32_t& valid) {
-  Ray rays[width<A>];
+  constexpr int W = width<A>;
+  alignas(64) float fx[W], fy[W];
   valid = 0;
-  for (int l = 0; l < width<A>; ++l) {
+  for (int l = 0; l < W; ++l) {
     int const x = bx + l % block_w<A>, y = by + l / block_w<A>;
     bool const in = x < tile.x0 + tile.w && y < tile.y0 + tile.h;
     px[l] = in ? x : bx;
     py[l] = in ? y : by;
     if (in) valid |= 1u << l;
-    // Unit directions: t is world distance, as DVR steps and opacity
-    // correction (per unit distance) assume.
-    rays[l] = Ray{cam.eye, 0.f, glm::normalize(cam.direction(float(px[l]), float(py[l]))),
-                  std::numeric_limits<float>::infinity()};
+    fx[l] = float(px[l]), fy[l] = float(py[l]);
   }
-  return load_rays<A>(rays, width<A>);
+  float const aspect = float(cam.width) / float(cam.height);
+  vfloat<A> const one(1.f), two(2.f), half(0.5f);
+  vfloat<A> const u = ((simd::load<A>(fx) + half) / vfloat<A>(float(cam.width)) * two - one) *
+                      vfloat<A>(cam.tan_half_fov) * vfloat<A>(aspect);
+  vfloat<A> const v = (one - (simd::load<A>(fy) + half) / vfloat<A>(float(cam.height)) * two) * vfloat<A>(cam.tan_half_fov);
+  vfloat<A> dx = vfloat<A>(cam.forward.x) + u * vfloat<A>(cam.right.x) + v * vfloat<A>(cam.up.x);
+  vfloat<A> dy = vfloat<A>(cam.forward.y) + u * vfloat<A>(cam.right.y) + v * vfloat<A>(cam.up.y);
+  vfloat<A> dz = vfloat<A>(cam.forward.z) + u * vfloat<A>(cam.right.z) + v * vfloat<A>(cam.up.z);
+  // Unit directions: t is world distance, as DVR steps and opacity
+  // correction (per unit distance) assume.
+  vfloat<A> const inv_len = one / simd::sqrt(dx * dx + dy * dy + dz * dz);
+  dx = dx * inv_len, dy = dy * inv_len, dz = dz * inv_len;
+  // load_rays' safe reciprocal: |d| below 1e-30 counts as +-1e-30.
+  auto safe_rcp = [&one](vfloat<A> const& d) {
+    vfloat<A> const r = one / d, big(1e30f);
+    return simd::select(simd::abs(d) < vfloat<A>(1e-30f), simd::select(r < vfloat<A>(0.f), -big, big), r);
+  };
+  RayPacket<A> p;
+  p.ox = vfloat<A>(cam.eye.x), p.oy = vfloat<A>(cam.eye.y), p.oz = vfloat<A>(cam.eye.z);
+  p.dx = dx, p.dy = dy, p.dz = dz;
+  p.rx = safe_rcp(dx), p.ry = safe_rcp(dy), p.rz = safe_rcp(dz);
+  p.tmin = vfloat<A>(0.f), p.tmax = vfloat<A>(std::numeric_limits<float>::infinity());
+  return p;
 }
 
 /// Per-lane nearest iso hit over every part of the scene.

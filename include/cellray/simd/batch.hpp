@@ -16,6 +16,17 @@
 
 #include "arch.hpp"
 
+/// For the small kernels the traversal loops call per node or per cell:
+/// GCC otherwise leaves some of them out of line in large loops, passing
+/// every batch through memory.
+#ifndef CELLRAY_FORCE_INLINE
+#if defined(__GNUC__)
+#define CELLRAY_FORCE_INLINE inline __attribute__((always_inline))
+#else
+#define CELLRAY_FORCE_INLINE inline
+#endif
+#endif
+
 namespace cellray {
 inline namespace CELLRAY_ISA_NS {
 

@@ -60,7 +60,7 @@ template <class A> struct CellOps<A, 8> {
 /// cheap cull before a clip, conservative like the BVH node test (same
 /// box_hit_varying).
 template <class A, int N>
-inline vmask<A> cell_box_hit(RayPacket<A> const& r, CellCorners<A, N> const& c, vfloat<A> const& t_lo,
+CELLRAY_FORCE_INLINE vmask<A> cell_box_hit(RayPacket<A> const& r, CellCorners<A, N> const& c, vfloat<A> const& t_lo,
                              vfloat<A> const& t_hi) {
   vfloat<A> lo[3] = {c.x[0], c.y[0], c.z[0]}, hi[3] = {c.x[0], c.y[0], c.z[0]};
   for (int k = 1; k < N; ++k) {

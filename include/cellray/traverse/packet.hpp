@@ -46,7 +46,7 @@ template <class A> inline RayPacket<A> load_rays(Ray const* rays, int n) {
 /// lanes that overlap and their entry distance. The exit distance is widened
 /// by a few ulps so float rounding never culls a box a cell kernel would hit.
 template <class A>
-inline vmask<A> box_hit(RayPacket<A> const& r, float const lo[3], float const hi[3], vfloat<A> const& t0,
+CELLRAY_FORCE_INLINE vmask<A> box_hit(RayPacket<A> const& r, float const lo[3], float const hi[3], vfloat<A> const& t0,
                         vfloat<A> const& t1, vfloat<A>& tnear) {
   vfloat<A> const ax = (vfloat<A>(lo[0]) - r.ox) * r.rx, bx = (vfloat<A>(hi[0]) - r.ox) * r.rx;
   vfloat<A> const ay = (vfloat<A>(lo[1]) - r.oy) * r.ry, by = (vfloat<A>(hi[1]) - r.oy) * r.ry;
@@ -59,7 +59,7 @@ inline vmask<A> box_hit(RayPacket<A> const& r, float const lo[3], float const hi
 
 /// Box test with per-lane boxes (SPMD): node fields gathered per lane.
 template <class A>
-inline vmask<A> box_hit_varying(RayPacket<A> const& r, vfloat<A> const lo[3], vfloat<A> const hi[3],
+CELLRAY_FORCE_INLINE vmask<A> box_hit_varying(RayPacket<A> const& r, vfloat<A> const lo[3], vfloat<A> const hi[3],
                                 vfloat<A> const& t0, vfloat<A> const& t1, vfloat<A>& tnear) {
   vfloat<A> const ax = (lo[0] - r.ox) * r.rx, bx = (hi[0] - r.ox) * r.rx;
   vfloat<A> const ay = (lo[1] - r.oy) * r.ry, by = (hi[1] - r.oy) * r.ry;

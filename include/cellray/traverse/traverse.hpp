@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 
 #include "packet.hpp"
 #include "tree_view.hpp"
@@ -56,15 +57,31 @@ template <class A, class Query>
 void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> active, Query& q, uint32_t root = 0,
                      int hybrid_threshold = 0) {
   if (tree.empty() || simd::none(active)) return;
-  uint32_t stack[traversal_stack_size];
+  // A node is tested (value range, then box) when its parent is opened;
+  // the stack keeps the lanes that entered it and where they did, so a pop
+  // only drops the lanes whose interval has since shrunk past the node
+  // (t_hi falls as hits are found) instead of testing the box again.
+  struct Entry {
+    vfloat<A> t_enter;
+    uint32_t node;
+    uint32_t lanes;
+  };
+  Entry stack[traversal_stack_size];
   int sp = 0;
-  stack[sp++] = root;
-  while (sp > 0) {
-    uint32_t const ni = stack[--sp];
-    Node const& node = tree.nodes[ni];
-    if (!q.node_relevant(tree.ranges[2 * ni], tree.ranges[2 * ni + 1])) continue;
+  {
+    Node const& node = tree.nodes[root];
+    if (!q.node_relevant(tree.ranges[2 * root], tree.ranges[2 * root + 1])) return;
     vfloat<A> tn;
     vmask<A> const m = active && box_hit(r, node.lo, node.hi, q.t_lo(), q.t_hi(), tn);
+    if (simd::none(m)) return;
+    stack[sp++] = Entry{tn, root, simd::movemask(m)};
+  }
+  vfloat<A> const slack(1.f + 4.f * std::numeric_limits<float>::epsilon());  // as box_hit's exit
+  while (sp > 0) {
+    Entry const e = stack[--sp];
+    uint32_t const ni = e.node;
+    Node const& node = tree.nodes[ni];
+    vmask<A> const m = simd::mask_from_bits<A>(e.lanes) && e.t_enter <= q.t_hi() * slack;
     if (simd::none(m)) continue;
     if constexpr (!std::is_same_v<A, scalar>) {
       if (hybrid_threshold > 0 && popcount<A>(m) < hybrid_threshold) {
@@ -77,20 +94,27 @@ void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> activ
       if (q.done()) return;
       continue;
     }
-    Node const& left = tree.nodes[node.left()];
-    Node const& right = tree.nodes[node.right()];
-    vfloat<A> tl, tr;
-    vmask<A> const ml = m && box_hit(r, left.lo, left.hi, q.t_lo(), q.t_hi(), tl);
-    vmask<A> const mr = m && box_hit(r, right.lo, right.hi, q.t_lo(), q.t_hi(), tr);
-    bool const hl = simd::any(ml), hr = simd::any(mr);
+    uint32_t const li = node.left(), ri = node.right();
+    Node const& left = tree.nodes[li];
+    Node const& right = tree.nodes[ri];
+    vfloat<A> tl(0.f), tr(0.f);
+    vmask<A> ml(false), mr(false);
+    if (q.node_relevant(tree.ranges[2 * li], tree.ranges[2 * li + 1]))
+      ml = m && box_hit(r, left.lo, left.hi, q.t_lo(), q.t_hi(), tl);
+    if (q.node_relevant(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]))
+      mr = m && box_hit(r, right.lo, right.hi, q.t_lo(), q.t_hi(), tr);
+    uint32_t const bl = simd::movemask(ml), br = simd::movemask(mr);
     // The builders cap the depth at MinMaxBvh::max_depth, so the stack holds.
-    if (hl && hr) {
+    if (bl && br) {
       // Nearer child first: the one most of the lanes that enter both enter first.
       bool const left_first = popcount<A>(ml && mr && tl <= tr) * 2 >= popcount<A>(ml && mr);
-      stack[sp++] = left_first ? node.right() : node.left();
-      stack[sp++] = left_first ? node.left() : node.right();
-    } else if (hl || hr) {
-      stack[sp++] = hl ? node.left() : node.right();
+      Entry const el{tl, li, bl}, er{tr, ri, br};
+      stack[sp++] = left_first ? er : el;
+      stack[sp++] = left_first ? el : er;
+    } else if (bl) {
+      stack[sp++] = Entry{tl, li, bl};
+    } else if (br) {
+      stack[sp++] = Entry{tr, ri, br};
     }
   }
 }
