@@ -17,6 +17,8 @@
 #include <limits>
 #include <memory>
 #include <optional>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include <tbb/blocked_range.h>
@@ -66,7 +68,7 @@ namespace detail {
 
 /// Writes a built tree into a MinMaxBvh (its only writer besides set_ranges).
 struct BvhAccess {
-  static std::vector<Node>& nodes(MinMaxBvh& b) { return b.nodes_; }
+  static NodeVector& nodes(MinMaxBvh& b) { return b.nodes_; }
   static ValueRanges& ranges(MinMaxBvh& b) { return b.ranges_; }
   static std::vector<uint32_t>& items32(MinMaxBvh& b) { return b.items32_; }
   static std::vector<uint64_t>& items64(MinMaxBvh& b) { return b.items64_; }
@@ -418,7 +420,7 @@ inline int widest_axis(Box3 const& b) noexcept {
 /// two subtrees. `fit` is the subtree root's bounds and value range,
 /// `depth` the absolute depth of its deepest leaf.
 struct Subtree {
-  std::vector<Node> nodes;
+  NodeVector nodes;
   std::vector<NodeRange> ranges;
   std::unique_ptr<Subtree> child[2];
   Bounds4 fit = Bounds4::empty();
@@ -431,13 +433,14 @@ struct Subtree {
 // slots [b, e) so [b, m) and [m, e) are the children (with their centroid
 // bounds), or m = e to make [b, e) a leaf. It must split every range larger
 // than the leaf size. `Bounds4 leaf_fit(b, e)`: bounds and range of the
-// items in slots [b, e).
+// items in slots [b, e). Optional `void prepare(b, e) const`: called once
+// before the private subtree of slots [b, e) is built (e.g. to prefetch).
 
 /// Builds the subtree of slots [b, e) into `nodes`/`ranges` at `self`,
 /// fitting bounds and ranges on the way back up; returns its deepest leaf's depth.
 template <class Splitter>
 uint32_t build_local(Splitter& s, uint64_t b, uint64_t e, uint32_t depth, Box3 const& cb, uint32_t self,
-                     std::vector<Node>& nodes, std::vector<NodeRange>& ranges, Bounds4& fit) {
+                     NodeVector& nodes, std::vector<NodeRange>& ranges, Bounds4& fit) {
   Split const sp = s.split(b, e, depth, cb);
   if (sp.m == e) {
     fit = s.leaf_fit(b, e);
@@ -458,6 +461,12 @@ uint32_t build_local(Splitter& s, uint64_t b, uint64_t e, uint32_t depth, Box3 c
   return std::max(dl, dr);
 }
 
+/// Whether a splitter has `prepare(b, e)`, called before a private subtree of slots [b, e) is built.
+template <class S, class = void> struct has_prepare : std::false_type {};
+template <class S>
+struct has_prepare<S, std::void_t<decltype(std::declval<S const&>().prepare(uint64_t(0), uint64_t(0)))>>
+    : std::true_type {};
+
 template <class Splitter>
 std::unique_ptr<Subtree> build_upper(Splitter& s, uint64_t b, uint64_t e, uint32_t depth, Box3 const& cb) {
   auto t = std::make_unique<Subtree>();
@@ -467,6 +476,7 @@ std::unique_ptr<Subtree> build_upper(Splitter& s, uint64_t b, uint64_t e, uint32
     t->ranges.reserve(2 * (e - b) / 3 + 8);
     t->nodes.resize(1);
     t->ranges.resize(1);
+    if constexpr (has_prepare<Splitter>::value) s.prepare(b, e);
     t->depth = build_local(s, b, e, depth, cb, 0, t->nodes, t->ranges, t->fit);
     return t;
   }
@@ -506,7 +516,7 @@ inline void place(Subtree const& t, uint64_t self, uint64_t next, Node* out, Nod
 }
 
 /// The final node and range arrays of a built subtree.
-inline void assemble(Subtree& root, std::vector<Node>& nodes, ValueRanges& ranges) {
+inline void assemble(Subtree& root, NodeVector& nodes, ValueRanges& ranges) {
   uint64_t const total = count_nodes(root);
   if (total >= uint64_t(Node::inner)) throw Error("BVH would need more than 2^32 - 2 nodes");
   nodes.resize(total);
@@ -516,7 +526,7 @@ inline void assemble(Subtree& root, std::vector<Node>& nodes, ValueRanges& range
   tbb::parallel_for(tbb::blocked_range<size_t>(0, jobs.size(), 1), [&](tbb::blocked_range<size_t> const& r) {
     for (size_t j = r.begin(); j < r.end(); ++j) {
       PlaceJob const& job = jobs[j];
-      std::vector<Node> const& local = job.tree->nodes;
+      NodeVector const& local = job.tree->nodes;
       std::vector<NodeRange> const& local_ranges = job.tree->ranges;
       for (size_t i = 0; i < local.size(); ++i) {
         Node n = local[i];

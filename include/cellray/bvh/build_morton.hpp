@@ -157,6 +157,14 @@ template <class Index> struct MortonSplitter {
     return f;
   }
 
+  /// Before a private subtree is built: its leaves will read the boxes of
+  /// items[b, e) in slot order, i.e. at random (boxes are by item id).
+  /// Touching them in one branch-free loop first lets those cache misses
+  /// overlap; inside the recursion they stall between its branches.
+  void prepare(uint64_t b, uint64_t e) const noexcept {
+    for (uint64_t i = b; i < e; ++i) __builtin_prefetch(boxes + items[i]);
+  }
+
   /// Centroid bounds are not tracked (the codes carry the geometry).
   Split split(uint64_t b, uint64_t e, uint32_t /*depth*/, Box3 const& /*cb*/) const {
     uint64_t const n = e - b;

@@ -6,7 +6,10 @@
 #include <algorithm>
 #include <cstdint>
 #include <limits>
+#include <memory>
+#include <new>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -55,6 +58,28 @@ struct alignas(32) Node {
   }
 };
 static_assert(sizeof(Node) == 32, "Node is documented as 32 bytes");
+
+namespace detail {
+/// A std::allocator that default-initialises: a resize of a vector of a
+/// trivial type leaves the new elements unset instead of zeroing them. For
+/// arrays the builders write completely (a 1M-cell tree has 10 MB of nodes:
+/// the zeroing was 2-3% of a Morton build).
+template <class T> struct UninitAllocator : std::allocator<T> {
+  template <class U> struct rebind {
+    using other = UninitAllocator<U>;
+  };
+  UninitAllocator() = default;
+  template <class U> UninitAllocator(UninitAllocator<U> const&) noexcept {}
+  template <class U> void construct(U* p) noexcept(std::is_nothrow_default_constructible<U>::value) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args> void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+/// The node array of a tree (elements unset after a resize).
+using NodeVector = std::vector<Node, UninitAllocator<Node>>;
+}  // namespace detail
 
 /// Value range of one node: the smallest and largest vertex value of every
 /// cell below it (leaf: exactly the min/max over its cells). Empty range
@@ -199,7 +224,7 @@ class MinMaxBvh {
     piece_offsets_ = {0, 0};
   }
 
-  std::vector<Node> nodes_;
+  detail::NodeVector nodes_;
   ValueRanges ranges_;
   std::vector<uint32_t> items32_;
   std::vector<uint64_t> items64_;
