@@ -258,11 +258,13 @@ void sweep_dvr(Subject const& s, Settings const& st, std::vector<Row>& rows) {
   for (int g : {1, 4, 8, 32}) cfgs.push_back({500, g, DvrMode::samples, true, best, Traversal::packet});
   // Speed knobs in the default mode (cell segments); both modes with --full.
   DvrParams const def;
+  // The default step of a mode as a divisor of the diagonal (default_dvr_step).
+  auto default_div = [](DvrMode m) { return int(std::lround(1.0 / double(default_dvr_step(m, 1.f)))); };
   for (DvrMode m : {DvrMode::segments, DvrMode::samples}) {
     if (m != def.mode && !st.full) continue;
     for (Isa isa : isas_here())
       for (Traversal tr : {Traversal::packet, Traversal::spmd, Traversal::hybrid})
-        if (!(isa == best && tr == Traversal::packet)) cfgs.push_back({500, 16, m, true, isa, tr});
+        if (!(isa == best && tr == Traversal::packet)) cfgs.push_back({default_div(m), 16, m, true, isa, tr});
   }
   for (Cfg const& c : cfgs) {
     DvrParams q = p;
@@ -284,8 +286,8 @@ void sweep_dvr(Subject const& s, Settings const& st, std::vector<Row>& rows) {
     r.config = r.dvr_mode + "/d" + std::to_string(c.step_div) + "/g" + std::to_string(c.group) + (c.ess ? "/ess" : "/noess") +
                "/" + r.isa + "/" + r.traversal;
     // cellray-render's default: the library's DvrParams defaults (step 0 =
-    // diagonal / 500), best ISA, packet traversal.
-    r.is_default = c.step_div == 500 && c.group == def.group_size && c.mode == def.mode &&
+    // default_dvr_step), best ISA, packet traversal.
+    r.is_default = c.step_div == default_div(def.mode) && c.group == def.group_size && c.mode == def.mode &&
                    c.ess == def.empty_space_skipping && c.isa == best && c.tr == Traversal::packet;
     r.mrays = double(cam.width) * cam.height / sec / 1e6;
     r.rmse = d.rmse, r.max = d.max, r.pct_over = 100 * d.frac_over;
