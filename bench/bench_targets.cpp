@@ -10,8 +10,8 @@
 // thread. DVR uses the cool-warm preset (opacity over the top third of the
 // value range, unit distance = diagonal / 10, as cellray-render) at the
 // largest step whose image is within 1/255 RMSE of the reference renderer
-// (checked on a 128x128 frame); cell-segment DVR has no step and is checked
-// the same way.
+// (checked on a 128x128 frame), for point samples (the step is the sample
+// spacing) and cell segments (the step is the longest integration piece).
 
 #include <algorithm>
 #include <chrono>
@@ -98,13 +98,14 @@ double process_cpu_seconds() {
 
 /// Median time of `frames` calls, seconds, on `threads` TBB threads: the
 /// process's CPU time for one thread (a figure per core that other work on a
-/// shared machine does not inflate), wall time for more (scaling needs it).
-double median_seconds(int frames, int threads, std::function<void()> const& f) {
+/// shared machine inflates less), wall time for more or when `wall`
+/// (thread scaling compares wall times).
+double median_seconds(int frames, int threads, std::function<void()> const& f, bool wall = false) {
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, size_t(threads));
   f();  // warm caches and TBB's workers
   std::vector<double> t;
   for (int i = 0; i < frames; ++i) {
-    if (threads == 1) {
+    if (threads == 1 && !wall) {
       double const a = process_cpu_seconds();
       f();
       t.push_back(process_cpu_seconds() - a);
@@ -131,14 +132,14 @@ IsoParams iso_params(Subject const& s) {
 }
 
 /// Primary-ray isosurface Mrays/s.
-double iso_mrays(Subject const& s, Options const& o, int threads, Isa isa, Traversal how) {
+double iso_mrays(Subject const& s, Options const& o, int threads, Isa isa, Traversal how, bool wall = false) {
   Scene const scene = s.scene();
   Camera const cam = camera_for(s, o.size);
   IsoParams const p = iso_params(s);
   RenderOptions ro;
   ro.isa = isa;
   ro.traversal = how;
-  double const t = median_seconds(o.frames, threads, [&] { render_iso(scene, cam, p, ro); });
+  double const t = median_seconds(o.frames, threads, [&] { render_iso(scene, cam, p, ro); }, wall);
   return double(o.size) * double(o.size) / t * 1e-6;
 }
 
@@ -174,13 +175,15 @@ DvrResult best_dvr(Subject const& s, Options const& o) {
       double const rmse = compare_images(render_dvr(scene, check_cam, p), reference).rmse;
       if (rmse <= 1.0) {
         double const t = median_seconds(o.frames, 1, [&] { render_dvr(scene, cam, p); });
-        ok.push_back({mode == DvrMode::segments ? "segments" : "samples", mode == DvrMode::segments ? 0.f : p.step,
-                      rmse, double(o.size) * double(o.size) / t * 1e-6});
+        ok.push_back({mode == DvrMode::segments ? "segments" : "samples", p.step, rmse,
+                      double(o.size) * double(o.size) / t * 1e-6});
         break;
       }
-      if (mode == DvrMode::segments) break;  // the step does not matter there
     }
   }
+  for (auto const& c : ok)
+    std::printf("DVR candidate %s: %s, step %.3g, RMSE %.3f/255, %.3f Mrays/s\n", s.name.c_str(), c.mode.c_str(), c.step,
+                c.rmse, c.mrays);
   if (ok.empty()) return {"none within 1/255", 0.f, -1, 0};
   return *std::max_element(ok.begin(), ok.end(), [](auto const& a, auto const& b) { return a.mrays < b.mrays; });
 }
@@ -254,7 +257,7 @@ int main(int argc, char** argv) {
   if (isa_available(Isa::avx512))
     rows.push_back(
         {"AVX-512 / SSE4.2, packet iso, component8", "x", iso_mrays(*c8, o, 1, Isa::avx512, Traversal::packet) / sse, 2.0});
-  double const one = iso_mrays(*c8, o, 1, best_isa(), Traversal::packet);
+  double const one = iso_mrays(*c8, o, 1, best_isa(), Traversal::packet, true);
   double const both = iso_mrays(*c8, o, all, best_isa(), Traversal::packet);
   rows.push_back({std::to_string(all) + " threads / 1 thread, iso, component8", "x", both / one, 1.8});
 

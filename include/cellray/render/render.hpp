@@ -129,8 +129,10 @@ struct DvrParams {
 struct RenderOptions {
   Isa isa = default_isa();
   Traversal traversal = Traversal::packet;  ///< primary rays
-  /// Shadow and AO rays are incoherent: SPMD is faster there (see README).
-  Traversal secondary_traversal = Traversal::spmd;
+  /// Shadow and AO rays. Packets of them start at neighbouring hit points and
+  /// still share most nodes: packet traversal measured 6x faster than SPMD
+  /// and 3x faster than hybrid there (bench/bench_targets, README Performance).
+  Traversal secondary_traversal = Traversal::packet;
   int hybrid_threshold = 0;  ///< 0: a quarter of the packet width
   int tile_size = 32;        ///< pixels per tile side, scheduled on TBB
 };
