@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# ThreadSanitizer build of the render tests (the library's ISA units and
-# test_render only) and a run of the concurrency tests:
+# ThreadSanitizer build of the concurrency tests (the library's widest ISA
+# unit and test_render_concurrency, i.e. tests/test_render_concurrency.cpp
+# alone) and a run of them:
 #   scripts/tsan.sh [build dir, default build-tsan]
 # TBB's scheduler lives in an uninstrumented shared library, so TSan cannot
 # see the happens-before edges it creates between a parallel_for's tasks;
@@ -13,6 +14,6 @@ build=${1:-build-tsan}
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
   -DCELLRAY_ISAS="$(./scripts/widest-isa.sh)" -DCELLRAY_BUILD_TESTS=ON -DCELLRAY_BUILD_EXAMPLES=OFF \
   -DCELLRAY_BUILD_BENCH=OFF -DCMAKE_CXX_FLAGS="-fsanitize=thread" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=thread" >/dev/null
-cmake --build "$build" -j"$(nproc)" --target test_render
+cmake --build "$build" -j"$(nproc)" --target test_render_concurrency
 TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" CELLRAY_TEST_TBB_THREADS=1 \
-  "$build/tests/test_render" "[concurrency]"
+  "$build/tests/test_render_concurrency" "[concurrency]"

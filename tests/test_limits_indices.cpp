@@ -1,7 +1,5 @@
 #include <catch2/catch.hpp>
 
-#include <sys/mman.h>
-
 #include <cmath>
 #include <cstring>
 #include <vector>
@@ -11,6 +9,8 @@
 #include <cellray/mesh/cell_boxes.hpp>
 #include <cellray/mesh/generate.hpp>
 #include <cellray/render/render.hpp>
+
+#include "support/adversarial.hpp"
 
 // Index arithmetic beyond 2^31 and 2^32, on views whose index values and
 // counts are that large without allocating that much: the arrays are
@@ -23,25 +23,7 @@ using namespace cellray;
 
 namespace {
 
-/// Address space without memory: pages are committed only when written.
-class Reservation {
- public:
-  explicit Reservation(uint64_t bytes) : bytes_(bytes) {
-    void* p = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
-    p_ = p == MAP_FAILED ? nullptr : p;
-  }
-  ~Reservation() {
-    if (p_) munmap(p_, bytes_);
-  }
-  Reservation(Reservation const&) = delete;
-  Reservation& operator=(Reservation const&) = delete;
-  template <class T> T* as() const { return static_cast<T*>(p_); }
-  explicit operator bool() const { return p_ != nullptr; }
-
- private:
-  void* p_ = nullptr;
-  uint64_t bytes_;
-};
+using test::Reservation;
 
 constexpr uint64_t two31 = uint64_t(1) << 31, two32 = uint64_t(1) << 32;
 

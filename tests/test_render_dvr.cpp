@@ -6,73 +6,25 @@
 
 #include <catch2/catch.hpp>
 
-#include <cmath>
 #include <cstdio>
-#include <memory>
 #include <string>
 #include <vector>
 
-#include <glm/glm.hpp>
-
-#include <cellray/bvh/build.hpp>
-#include <cellray/io/read_mesh.hpp>
 #include <cellray/mesh/generate.hpp>
-#include <cellray/render/reference.hpp>
 
-#include "support/test_isa.hpp"
+#include "support/render_fixtures.hpp"
 
 using namespace cellray;
 
+using test::busy_tf;
+using test::camera_for;
+using test::diagonal;
+using test::load;
+using test::report;
+
 namespace {
 
-template <int N> struct Loaded {
-  CellMesh<N> mesh;
-  MinMaxBvh bvh;
-  Scene scene() const { return Scene(mesh, bvh); }
-};
-
-template <int N> std::unique_ptr<Loaded<N>> load(CellMesh<N> const& m) {
-  auto l = std::make_unique<Loaded<N>>(Loaded<N>{m, {}});
-  l->bvh = build_minmax_bvh(l->mesh);
-  return l;
-}
-
-Camera camera_for(Scene const& s, int w, int h) {
-  glm::vec3 lo, hi;
-  s.bounds(lo, hi);
-  return fit_camera(lo, hi, w, h);
-}
-
-float diagonal(Scene const& s) {
-  glm::vec3 lo, hi;
-  s.bounds(lo, hi);
-  return glm::length(hi - lo);
-}
-
-/// Opacity over the whole range with kinks, colour changing everywhere (the
-/// accuracy sweep's transfer function, bench/bench_accuracy.cpp).
-TransferFunction busy_tf(float vmin, float vmax, float unit) {
-  TransferFunction tf;
-  float const k[6] = {0.f, 0.2f, 0.4f, 0.6f, 0.8f, 1.f};
-  float const a[6] = {0.05f, 0.3f, 0.1f, 0.6f, 0.2f, 0.9f};
-  for (int i = 0; i < 6; ++i) {
-    tf.values.push_back(vmin + k[i] * (vmax - vmin));
-    tf.rgba.emplace_back(0.2f + 0.7f * k[i], 0.9f - 0.6f * k[i], 0.5f + 0.4f * std::sin(6.f * k[i]), a[i]);
-  }
-  tf.unit_distance = unit;
-  return tf;
-}
-
-void report(std::string const& what, ImageDiff const& d) {
-  std::printf("  %-58s rmse %.4f  max %.2f  >%.0f/255: %.3f%%\n", what.c_str(), d.rmse, d.max, d.threshold,
-              100.0 * d.frac_over);
-}
-
-RenderOptions options() {
-  RenderOptions o;
-  o.isa = test::isa();
-  return o;
-}
+RenderOptions options() { return test::isa_options(); }
 
 }  // namespace
 
