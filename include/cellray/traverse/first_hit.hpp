@@ -4,10 +4,7 @@
 // holds none of the isovalues are skipped; all isovalues are tested in one
 // traversal (§6.1). ISA units only.
 
-#include <algorithm>
 #include <cstdint>
-#include <limits>
-#include <utility>
 
 #include "cell_ops.hpp"
 #include "packet.hpp"
