@@ -6,6 +6,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <limits>
 #include <memory>
 #include <numeric>
 #include <random>
@@ -15,19 +16,31 @@
 
 using namespace cellray;
 
+namespace {
+
+/// A one-lane segment query over nothing: only its list (add, count, cut) is used.
+struct ListOnly {
+  TreeView tree;
+  TetMesh mesh;
+  RayPacket<scalar> rays{};
+  ValueWindows windows;
+  std::unique_ptr<SegmentQuery<scalar, 4>> query(float t_lo, float t_hi) const {
+    return std::make_unique<SegmentQuery<scalar, 4>>(tree, mesh, rays, windows, t_lo, t_hi);
+  }
+};
+
+}  // namespace
+
 TEST_CASE("segment lists keep the nearest max_segments per ray in any arrival order", "[traverse][segments]") {
-  TreeView const tree;
-  TetMesh const mesh;
-  RayPacket<scalar> const rays{};
-  ValueWindows const windows;
-  auto q = std::make_unique<SegmentQuery<scalar, 4>>(tree, mesh, rays, windows, 0.f, 1000.f);
+  ListOnly const f;
+  auto q = f.query(0.f, 1000.f);
   int const total = max_segments + 25;
   std::vector<int> order(size_t(total), 0);
   std::iota(order.begin(), order.end(), 0);
   std::mt19937 rng(7);
   for (int round = 0; round < 20; ++round) {
     std::shuffle(order.begin(), order.end(), rng);
-    q->reset(tree, mesh, 0.f, 1000.f);
+    q->reset(f.tree, f.mesh, 0.f, 1000.f);
     for (int i : order) {
       FieldSegment s{};
       s.s.t_in = float(i), s.s.t_out = float(i) + 1.f, s.s.cell = uint64_t(i);
@@ -44,11 +57,8 @@ TEST_CASE("segment lists keep the nearest max_segments per ray in any arrival or
 }
 
 TEST_CASE("segment lists below capacity keep everything and no cut", "[traverse][segments]") {
-  TreeView const tree;
-  TetMesh const mesh;
-  RayPacket<scalar> const rays{};
-  ValueWindows const windows;
-  auto q = std::make_unique<SegmentQuery<scalar, 4>>(tree, mesh, rays, windows, 0.f, 10.f);
+  ListOnly const f;
+  auto q = f.query(0.f, 10.f);
   for (int i = 5; i > 0; --i) {
     FieldSegment s{};
     s.s.t_in = float(i), s.s.t_out = float(i) + 1.f;
