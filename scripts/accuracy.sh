@@ -3,7 +3,8 @@
 # the fast renderer's speed against its error versus the double-precision
 # reference renderer, for every knob that trades one for the other.
 # Arguments go to bench_accuracy (e.g. --meshes post,disk --frames 3 --size 128 --full).
-# Takes about 17 minutes on 2 (shared) cores with the defaults.
+# Takes about 16 minutes on 2 idle cores (15 frames per configuration: fewer
+# make the speed axis noisy enough to move points off the front; see docs/accuracy.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install-deps.sh python3-matplotlib
@@ -12,7 +13,7 @@ cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DCELLRAY_BUILD_TESTS=OFF -DCE
   -DCELLRAY_BUILD_BENCH=ON >/dev/null
 cmake --build "$build" -j"$(nproc)" --target bench_accuracy
 mkdir -p docs
-"$build"/bench/bench_accuracy --csv docs/accuracy.csv --frames 3 "$@" >/dev/null
+"$build"/bench/bench_accuracy --csv docs/accuracy.csv --frames 15 "$@" >/dev/null
 # Debian's python3-matplotlib lives in /usr/bin/python3 (a pyenv python3 on PATH lacks it).
 py=/usr/bin/python3
 [ -x "$py" ] || py=python3

@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Regenerates docs/traversal.md and docs/traversal_iso.png: packet vs SPMD vs
+# hybrid traversal per ISA, mesh and thread count (the paper's Table 1), for
+# incoherent rays too, volume samples against group size and step (Tables 2
+# and 3) and whole DVR frames (samples vs segments, skipping on/off).
+# Run it on an idle machine: about 6 minutes on 2 cores; CELLRAY_BENCH_LARGE=1
+# adds generated 1M and 5M-cell meshes (the 5M one needs ~4 GB).
+# Arguments go to bench_traverse (e.g. --benchmark_filter='^iso/').
+set -euo pipefail
+cd "$(dirname "$0")/.."
+./scripts/install-deps.sh python3-matplotlib
+build=${CELLRAY_BUILD_DIR:-build-bench}
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DCELLRAY_BUILD_TESTS=OFF -DCELLRAY_BUILD_EXAMPLES=OFF \
+  -DCELLRAY_BUILD_BENCH=ON >/dev/null
+cmake --build "$build" -j"$(nproc)" --target bench_traverse
+mkdir -p docs
+json=$(mktemp --suffix=.json)
+trap 'rm -f "$json"' EXIT
+"$build"/bench/bench_traverse --benchmark_min_time=0.2 --benchmark_out="$json" --benchmark_out_format=json "$@"
+# Debian's python3-matplotlib lives in /usr/bin/python3 (a pyenv python3 on PATH lacks it).
+py=/usr/bin/python3
+[ -x "$py" ] || py=python3
+"$py" scripts/traversal-tables.py docs "$json"
+echo "wrote docs/traversal.md and docs/traversal_iso.png"
