@@ -74,8 +74,24 @@ template <class A, int N> struct FirstHitQuery {
   }
 
   void leaf_items(vint<A> const& slots, vmask<A> const& m) {
-    CellCorners<A, N> const c = gather_corners<A, N>(mesh, slot_cells<A>(tree, slots, m), m);
-    CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method);
+    if (!mesh.values()) return;
+    vint<A> const cells = slot_cells<A>(tree, slots, m);
+    // Each lane's value range first, as packet leaves do: most cells a lane
+    // reaches hold no isovalue, and they then cost no position gathers and
+    // no clip.
+    alignas(64) int32_t cell[width<A>];
+    simd::store(cell, cells);
+    uint32_t keep = 0;
+    for (uint32_t b = simd::movemask(m); b; b &= b - 1) {
+      int const l = __builtin_ctz(b);
+      ScalarCorners<N> k;
+      read_corner_values(mesh, uint64_t(uint32_t(cell[l])), k);
+      if (isos.overlaps(k.lo, k.hi)) keep |= 1u << l;  // false for NaN
+    }
+    if (!keep) return;
+    vmask<A> const live = simd::mask_from_bits<A>(keep);
+    CellCorners<A, N> const c = gather_corners<A, N>(mesh, cells, live);
+    CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, live, r.tmin, hit.t, isos.values, isos.count, method);
     update(h.hit, h.t, h.iso_index, slots);
   }
 
