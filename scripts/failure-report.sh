@@ -7,12 +7,8 @@
 # 128). About two minutes on 2 cores after the build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-./scripts/install-deps.sh
-build=${CELLRAY_BUILD_DIR:-build-accuracy}
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DCELLRAY_BUILD_TESTS=ON -DCELLRAY_BUILD_EXAMPLES=OFF \
-  -DCELLRAY_BUILD_BENCH=ON >/dev/null
-cmake --build "$build" -j"$(nproc)" --target bench_accuracy test_cells
-mkdir -p docs
+. scripts/bench-build.sh
+bench_build --with-tests bench_accuracy test_cells
 "$build"/bench/bench_accuracy --report docs/failure_modes.md --size 192 "$@"
 
 # One table row per line "watertight <mesh, 16 chars> <kind> <isa>: numbers..."

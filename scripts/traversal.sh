@@ -8,17 +8,10 @@
 # Arguments go to bench_traverse (e.g. --benchmark_filter='^iso/').
 set -euo pipefail
 cd "$(dirname "$0")/.."
-./scripts/install-deps.sh python3-matplotlib
-build=${CELLRAY_BUILD_DIR:-build-bench}
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DCELLRAY_BUILD_TESTS=OFF -DCELLRAY_BUILD_EXAMPLES=OFF \
-  -DCELLRAY_BUILD_BENCH=ON >/dev/null
-cmake --build "$build" -j"$(nproc)" --target bench_traverse
-mkdir -p docs
+. scripts/bench-build.sh
+bench_build bench_traverse
 json=$(mktemp --suffix=.json)
 trap 'rm -f "$json"' EXIT
 "$build"/bench/bench_traverse --benchmark_min_time=0.2 --benchmark_out="$json" --benchmark_out_format=json "$@"
-# Debian's python3-matplotlib lives in /usr/bin/python3 (a pyenv python3 on PATH lacks it).
-py=/usr/bin/python3
-[ -x "$py" ] || py=python3
 "$py" scripts/traversal-tables.py docs "$json"
 echo "wrote docs/traversal.md and docs/traversal_iso.png"
