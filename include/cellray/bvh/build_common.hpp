@@ -542,11 +542,11 @@ inline void assemble(Subtree& root, NodeVector& nodes, ValueRanges& ranges) {
 /// Subtrees this deep below the root are fitted as parallel tasks (64).
 inline constexpr uint32_t parallel_fit_depth = 6;
 
-/// Value range of node `i` from its slots (leaf) or its children's ranges.
-template <class SlotRange>
-inline void fit_node(Node const* nodes, NodeRange* ranges, SlotRange const& slot_range, uint64_t i) {
-  Node const& n = nodes[i];
-  if (n.is_leaf()) {
+/// The value range of a leaf from `slot_range(s)` (the NodeRange of item-list slot s).
+template <class SlotRange> struct SlotLeafRange {
+  SlotRange const& slot_range;
+
+  NodeRange operator()(uint64_t /*node*/, Node const& n) const {
     NodeRange r{inf_f, -inf_f};
     uint64_t const first = n.first_item();
     for (uint64_t s = first; s < first + n.item_count(); ++s) {
@@ -554,7 +554,16 @@ inline void fit_node(Node const* nodes, NodeRange* ranges, SlotRange const& slot
       r.vmin = std::min(r.vmin, x.vmin);
       r.vmax = std::max(r.vmax, x.vmax);
     }
-    ranges[i] = r;
+    return r;
+  }
+};
+
+/// Value range of node `i`: `leaf_range(i, node)` for a leaf, else the union of its children's.
+template <class LeafRange>
+inline void fit_node(Node const* nodes, NodeRange* ranges, LeafRange const& leaf_range, uint64_t i) {
+  Node const& n = nodes[i];
+  if (n.is_leaf()) {
+    ranges[i] = leaf_range(i, n);
     return;
   }
   uint64_t const l = n.left(), rgt = n.right();
@@ -576,23 +585,23 @@ inline uint64_t subtree_end(Node const* nodes, uint64_t i) {
   }
 }
 
-/// Sets the value range of node `i` and everything below from
-/// `slot_range(s)` (the NodeRange of item-list slot s); bounds and topology
+/// Sets the value range of node `i` and everything below, a leaf's from
+/// `leaf_range(node, Node const&)` (see SlotLeafRange); bounds and topology
 /// untouched. Below the task depth a subtree is one reverse sweep over its
 /// block of nodes (children come after their parent), no recursion; leaves
 /// cover consecutive slots, so a slot-ordered source is read in order.
-template <class SlotRange>
-void fit_ranges(Node const* nodes, NodeRange* ranges, SlotRange const& slot_range, uint64_t i, uint32_t depth) {
+template <class LeafRange>
+void fit_ranges(Node const* nodes, NodeRange* ranges, LeafRange const& leaf_range, uint64_t i, uint32_t depth) {
   Node const& n = nodes[i];
   if (!n.is_leaf()) {
     if (depth < parallel_fit_depth) {
-      tbb::parallel_invoke([&] { fit_ranges(nodes, ranges, slot_range, n.left(), depth + 1); },
-                           [&] { fit_ranges(nodes, ranges, slot_range, n.right(), depth + 1); });
+      tbb::parallel_invoke([&] { fit_ranges(nodes, ranges, leaf_range, n.left(), depth + 1); },
+                           [&] { fit_ranges(nodes, ranges, leaf_range, n.right(), depth + 1); });
     } else {
-      for (uint64_t k = subtree_end(nodes, i); k-- > n.left();) fit_node(nodes, ranges, slot_range, k);
+      for (uint64_t k = subtree_end(nodes, i); k-- > n.left();) fit_node(nodes, ranges, leaf_range, k);
     }
   }
-  fit_node(nodes, ranges, slot_range, i);
+  fit_node(nodes, ranges, leaf_range, i);
 }
 
 }  // namespace detail
