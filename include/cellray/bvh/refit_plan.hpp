@@ -413,8 +413,12 @@ inline void refit_with_plan(MinMaxBvh const& bvh, RefitPlan const& plan, std::ve
 
 /// Makes the refit plan of `bvh` over `pieces` (the meshes it was built
 /// from, or any with the same cell counts and connectivity). Parallel;
-/// O(cells x corners); deterministic. Worth it when a tree serves several
-/// time steps: a refit through it is several times faster than without.
+/// O(cells x corners); deterministic. Worth it for tetrahedra when a tree
+/// serves several time steps: 1M generated tets (morton tree, 1 thread,
+/// AVX-512 box pass for the plain refit) refit in about 5 ms through a plan
+/// of 8 B/cell against 10.4 ms without; making it costs about 9 plain
+/// refits. Not for hexahedra: a hex leaf keeps about 4.3 vertex ids per
+/// cell (20 B/cell) and the refit through it was no faster than without.
 /// @throws InvalidArgument when the pieces or cell counts differ from the
 ///         build, or the pieces have 2^31 vertices or more in all (refit
 ///         without a plan then); InvalidMesh for a vertex id out of range.
