@@ -40,15 +40,16 @@ struct RefitPlanAccess;
 /// leaves and the meshes' connectivity: a new tree or new cell indices need a
 /// new plan (the refit checks node, cell and vertex counts, not the indices).
 /// Owns its arrays (`bytes()`: 4 B per stored vertex id, per leaf and per
-/// node; about 8 B per tet and 20 B per hex with the default leaf size, as
-/// vertices shared inside a leaf are stored once); immutable, safe to read
+/// node; about 8.4 B per tet and 21 B per hex with the default leaf size,
+/// as vertices shared inside a leaf are stored once); immutable, safe to read
 /// from any number of threads. A default-constructed plan is empty and
 /// matches no tree.
 ///
 /// Layout, chosen so the refit runs without data-dependent branches:
 ///   ids()       the leaves' vertex ids one leaf after the other, leaves in
-///               item-slot order (neighbours in space); bit 31 marks the
-///               last id of a leaf, bits [0,31) the vertex
+///               node order, each leaf padded to whole chunks of 4 by
+///               repeating its last id; bit 31 marks the last id of a leaf's
+///               last chunk, bits [0,31) the vertex
 ///   leaf_node() per leaf in that order, its node index
 ///   child()     per node: the left child of an inner node, the node itself
 ///               for a leaf (so "range = union of child(i) and the node
@@ -203,7 +204,7 @@ inline RefitPlan make_plan(MinMaxBvh const& bvh, std::vector<MeshPiece> const& p
       leaf_node.push_back(uint32_t(i));
       leaf_first.push_back(bvh.node(i).first_item());
       id_begin.push_back(total);
-      total += count_at[i];
+      total += (count_at[i] + 3) & ~uint64_t(3);  // padded to whole chunks of 4
     }
   auto& block_begin = RefitPlanAccess::block_begin(plan);
   for (uint64_t l = 0; l < leaf_node.size(); l += RefitPlan::leaf_block) block_begin.push_back(id_begin[l]);
@@ -213,10 +214,11 @@ inline RefitPlan make_plan(MinMaxBvh const& bvh, std::vector<MeshPiece> const& p
   tbb::parallel_for(tbb::blocked_range<uint64_t>(0, leaf_node.size(), block), [&](tbb::blocked_range<uint64_t> const& r) {
     for (uint64_t l = r.begin(); l < r.end(); ++l) {
       uint32_t const* in = scratch.get() + leaf_first[l] * corners;
-      uint32_t const m = count_at[leaf_node[l]];
+      uint32_t const m = count_at[leaf_node[l]], padded = (m + 3) & ~3u;
       uint32_t* out = ids.data() + id_begin[l];
       std::copy(in, in + m, out);
-      out[m - 1] |= RefitPlan::last_bit;
+      std::fill(out + m, out + padded, in[m - 1]);  // a repeated id changes no min or max
+      out[padded - 1] |= RefitPlan::last_bit;
     }
   });
   return plan;
@@ -245,79 +247,97 @@ inline NodeRange leaf_range_per_cell(MinMaxBvh const& bvh, std::vector<MeshPiece
 }
 
 /// Leaves per parallel task of the refit: `refit_streams` blocks.
-inline constexpr int refit_streams = 4;
+inline constexpr int refit_streams = 2;
 
 /// Leaf ranges of the leaves of blocks [b, e), e - b <= refit_streams, into
-/// `ranges` (at their nodes). Every block is a stream of ids in which a leaf ends where an id
-/// has the last bit; its running range is stored on every id (the final
-/// store wins) and reset to empty after the last one, so nothing branches on
-/// the data. The running range is a chain of dependent operations per id:
-/// the blocks advance side by side so their chains overlap. Returns bit
-/// s set when block b + s read a NaN value.
+/// `ranges` (at their nodes). A leaf's ids come in chunks of 4 (padded by
+/// repeating one), the last chunk's fourth id carrying the last bit. Every
+/// chunk updates the running 4-lane minimum and maximum of its block, which
+/// are stored for the current leaf on every chunk (the final store wins) and
+/// reset to empty after a leaf's last chunk, so nothing branches on the
+/// data; the blocks advance side by side so their dependency chains overlap.
+/// Each leaf's 4 lanes are then reduced into `ranges`. Returns bit s set
+/// when block b + s read a NaN value.
 inline uint32_t fit_leaf_blocks(RefitPlan const& plan, float const* values, uint64_t b, uint64_t e,
                                 NodeRange* ranges) {
   constexpr int streams = refit_streams;
+  constexpr uint64_t lb = RefitPlan::leaf_block;
   uint32_t const* ids = plan.ids();
+  int const live = int(e - b);
+  uint64_t k[streams], end[streams], leaf[streams];
+  for (int s = 0; s < streams; ++s) {
+    uint64_t const q = b + uint64_t(std::min(s, live - 1));  // idle streams repeat the last block, empty
+    k[s] = plan.block_begin()[q];
+    end[s] = s < live ? plan.block_begin()[q + 1] : k[s];
+    leaf[s] = 0;
+  }
+  // Per stream and leaf: 4 lanes of minima, then 4 of maxima.
+  std::unique_ptr<float[]> lanes(new float[streams * lb * 8]);
   uint32_t nan_blocks = 0;
-  {
-    int const live = int(e - b);
-    uint64_t k[streams], end[streams], leaf[streams];
-    uint32_t const* leaf_node[streams];
-    for (int s = 0; s < streams; ++s) {
-      uint64_t const q = b + uint64_t(std::min(s, live - 1));  // idle streams repeat the last block, empty
-      k[s] = plan.block_begin()[q];
-      end[s] = s < live ? plan.block_begin()[q + 1] : k[s];
-      leaf[s] = 0;
-      leaf_node[s] = plan.leaf_node() + q * RefitPlan::leaf_block;
-    }
 #if defined(__SSE2__)
-    // Lanes [lo, -hi]: one minps updates both ends of the range.
-    __m128 const sign_hi = _mm_castsi128_ps(_mm_set_epi32(0, 0, int32_t(0x80000000u), 0));
-    __m128 const empty = _mm_set1_ps(inf_f);
-    __m128 acc[streams], nan[streams];
-    for (int s = 0; s < streams; ++s) acc[s] = empty, nan[s] = _mm_setzero_ps();
-    auto step = [&](int s) {
-      uint32_t const raw = ids[k[s]++];
-      __m128 const x = _mm_load_ss(values + (raw & ~RefitPlan::last_bit));
-      __m128 const xx = _mm_unpacklo_ps(x, x);
-      nan[s] = _mm_or_ps(nan[s], _mm_cmpunord_ps(xx, xx));
-      acc[s] = _mm_min_ps(_mm_xor_ps(xx, sign_hi), acc[s]);  // a NaN x keeps acc (minps takes the second)
-      _mm_storel_pi(reinterpret_cast<__m64*>(ranges + leaf_node[s][leaf[s]]), _mm_xor_ps(acc[s], sign_hi));
-      uint32_t const last = raw >> 31;
-      leaf[s] += last;
-      __m128 const reset = _mm_castsi128_ps(_mm_set1_epi32(-int32_t(last)));
-      acc[s] = _mm_or_ps(_mm_andnot_ps(reset, acc[s]), _mm_and_ps(reset, empty));
-    };
+  __m128 const empty_lo = _mm_set1_ps(inf_f), empty_hi = _mm_set1_ps(-inf_f);
+  __m128 lo[streams], hi[streams], nan[streams];
+  for (int s = 0; s < streams; ++s) lo[s] = empty_lo, hi[s] = empty_hi, nan[s] = _mm_setzero_ps();
+  auto step = [&](int s) {
+    uint32_t const* q = ids + k[s];
+    k[s] += 4;
+    uint32_t const r3 = q[3];
+    __m128 const x01 = _mm_unpacklo_ps(_mm_load_ss(values + q[0]), _mm_load_ss(values + q[1]));
+    __m128 const x23 = _mm_unpacklo_ps(_mm_load_ss(values + q[2]), _mm_load_ss(values + (r3 & ~RefitPlan::last_bit)));
+    __m128 const x = _mm_movelh_ps(x01, x23);
+    nan[s] = _mm_or_ps(nan[s], _mm_cmpunord_ps(x, x));
+    lo[s] = _mm_min_ps(x, lo[s]);  // a NaN x keeps the accumulator (minps takes the second)
+    hi[s] = _mm_max_ps(x, hi[s]);
+    float* out = lanes.get() + (uint64_t(s) * lb + leaf[s]) * 8;
+    _mm_storeu_ps(out, lo[s]);
+    _mm_storeu_ps(out + 4, hi[s]);
+    uint32_t const last = r3 >> 31;
+    leaf[s] += last;
+    __m128 const reset = _mm_castsi128_ps(_mm_set1_epi32(-int32_t(last)));
+    lo[s] = _mm_or_ps(_mm_andnot_ps(reset, lo[s]), _mm_and_ps(reset, empty_lo));
+    hi[s] = _mm_or_ps(_mm_andnot_ps(reset, hi[s]), _mm_and_ps(reset, empty_hi));
+  };
 #else
-    float lo[streams], hi[streams];
-    bool nan[streams];
-    for (int s = 0; s < streams; ++s) lo[s] = inf_f, hi[s] = -inf_f, nan[s] = false;
-    auto step = [&](int s) {
-      uint32_t const raw = ids[k[s]++];
-      float const x = values[raw & ~RefitPlan::last_bit];
+  float lo[streams][4], hi[streams][4];
+  bool nan[streams];
+  for (int s = 0; s < streams; ++s) {
+    std::fill(lo[s], lo[s] + 4, inf_f), std::fill(hi[s], hi[s] + 4, -inf_f);
+    nan[s] = false;
+  }
+  auto step = [&](int s) {
+    uint32_t const* q = ids + k[s];
+    k[s] += 4;
+    float* out = lanes.get() + (uint64_t(s) * lb + leaf[s]) * 8;
+    for (int l = 0; l < 4; ++l) {
+      float const x = values[q[l] & ~RefitPlan::last_bit];
       nan[s] = nan[s] || x != x;
-      lo[s] = x < lo[s] ? x : lo[s];
-      hi[s] = x > hi[s] ? x : hi[s];
-      ranges[leaf_node[s][leaf[s]]] = {lo[s], hi[s]};
-      uint32_t const last = raw >> 31;
-      leaf[s] += last;
-      if (last) lo[s] = inf_f, hi[s] = -inf_f;
-    };
-#endif
-    uint64_t common = end[0] - k[0];
-    for (int s = 1; s < streams; ++s) common = std::min(common, end[s] - k[s]);
-    for (uint64_t j = 0; j < common; ++j)
-      for (int s = 0; s < streams; ++s) step(s);
-    for (int s = 0; s < streams; ++s)
-      while (k[s] < end[s]) step(s);
-    for (int s = 0; s < live; ++s) {
-#if defined(__SSE2__)
-      bool const any_nan = _mm_movemask_ps(nan[s]) != 0;
-#else
-      bool const any_nan = nan[s];
-#endif
-      if (any_nan) nan_blocks |= 1u << s;
+      lo[s][l] = x < lo[s][l] ? x : lo[s][l];
+      hi[s][l] = x > hi[s][l] ? x : hi[s][l];
+      out[l] = lo[s][l], out[4 + l] = hi[s][l];
     }
+    uint32_t const last = q[3] >> 31;
+    leaf[s] += last;
+    if (last) std::fill(lo[s], lo[s] + 4, inf_f), std::fill(hi[s], hi[s] + 4, -inf_f);
+  };
+#endif
+  uint64_t common = end[0] - k[0];
+  for (int s = 1; s < streams; ++s) common = std::min(common, end[s] - k[s]);
+  for (uint64_t j = 0; j < common; j += 4)
+    for (int s = 0; s < streams; ++s) step(s);
+  for (int s = 0; s < streams; ++s)
+    while (k[s] < end[s]) step(s);
+  for (int s = 0; s < live; ++s) {
+#if defined(__SSE2__)
+    bool const any_nan = _mm_movemask_ps(nan[s]) != 0;
+#else
+    bool const any_nan = nan[s];
+#endif
+    if (any_nan) nan_blocks |= 1u << s;
+    uint32_t const* leaf_node = plan.leaf_node() + (b + uint64_t(s)) * lb;
+    float const* in = lanes.get() + uint64_t(s) * lb * 8;
+    for (uint64_t l = 0; l < leaf[s]; ++l, in += 8)
+      ranges[leaf_node[l]] = {std::min(std::min(in[0], in[1]), std::min(in[2], in[3])),
+                              std::max(std::max(in[4], in[5]), std::max(in[6], in[7]))};
   }
   return nan_blocks;
 }
@@ -413,12 +433,11 @@ inline void refit_with_plan(MinMaxBvh const& bvh, RefitPlan const& plan, std::ve
 
 /// Makes the refit plan of `bvh` over `pieces` (the meshes it was built
 /// from, or any with the same cell counts and connectivity). Parallel;
-/// O(cells x corners); deterministic. Worth it for tetrahedra when a tree
-/// serves several time steps: 1M generated tets (morton tree, 1 thread,
-/// AVX-512 box pass for the plain refit) refit in about 5 ms through a plan
-/// of 8 B/cell against 10.4 ms without; making it costs about 9 plain
-/// refits. Not for hexahedra: a hex leaf keeps about 4.3 vertex ids per
-/// cell (20 B/cell) and the refit through it was no faster than without.
+/// O(cells x corners); deterministic. Worth it when a tree serves several
+/// time steps: 1M generated tets (morton tree, 1 thread; the plain refit's
+/// cell pass on AVX-512) refit in about 3 ms through a plan of 8.4 B/cell
+/// against about 10 ms without, 1M hexes in about 7 ms (21 B/cell) against
+/// about 15 ms; making a plan costs about 9 plain refits.
 /// @throws InvalidArgument when the pieces or cell counts differ from the
 ///         build, or the pieces have 2^31 vertices or more in all (refit
 ///         without a plan then); InvalidMesh for a vertex id out of range.
