@@ -4,6 +4,8 @@
 // cost and the tree shape. `BM_tree` is the table of tree statistics per
 // builder (SAH cost, nodes, leaves, leaf sizes, depth, bytes per cell) for
 // the traversal benchmarks to compare against; it times `bvh_stats`.
+// `BM_refit_plan` refits through a RefitPlan (its bytes per cell as a
+// counter), `BM_make_plan` times making one.
 //
 //   bench_bvh --benchmark_min_time=0.1
 //   bench_bvh --benchmark_filter='BM_build/2/4/1000000'   (morton, tets, 1M)
@@ -131,6 +133,61 @@ void BM_refit(benchmark::State& state) {
   else run_refit<8>(state);
 }
 
+/// Refit as above through a RefitPlan made once outside the timing (the
+/// "plan B/cell" counter is its size; "B/cell" stays the tree's).
+template <int N> void run_refit_plan(benchmark::State& state) {
+  auto const& gen = cached_mesh<N>(uint64_t(state.range(2)));
+  CellMesh<N> const mesh = gen.mesh();
+  CellMesh<N> const t1 = mesh.with_array("field_t1");
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, size_t(thread_count(state.range(3))));
+  BuildOptions opt;
+  opt.builder = BvhBuilder(state.range(0));
+  MinMaxBvh const bvh = build_minmax_bvh(mesh, opt);
+  RefitPlan const plan = make_refit_plan(bvh, mesh);
+  ValueRanges ranges;
+  refit_ranges(bvh, plan, t1, ranges);
+  if (ranges != build_minmax_bvh(t1, opt).ranges()) {
+    state.SkipWithError("refit through the plan differs from a rebuild");
+    return;
+  }
+  for (auto _ : state) {
+    refit_ranges(bvh, plan, t1, ranges);
+    benchmark::DoNotOptimize(ranges.data());
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(mesh.cell_count()));
+  state.SetLabel("refit_plan");
+  set_tree_counters(state, bvh, mesh.cell_count());
+  state.counters["plan B/cell"] = double(plan.bytes()) / double(mesh.cell_count());
+}
+
+void BM_refit_plan(benchmark::State& state) {
+  if (state.range(1) == 4) run_refit_plan<4>(state);
+  else run_refit_plan<8>(state);
+}
+
+/// Time to make a RefitPlan (once per tree and connectivity).
+template <int N> void run_make_plan(benchmark::State& state) {
+  auto const& gen = cached_mesh<N>(uint64_t(state.range(2)));
+  CellMesh<N> const mesh = gen.mesh();
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, size_t(thread_count(state.range(3))));
+  BuildOptions opt;
+  opt.builder = BvhBuilder(state.range(0));
+  MinMaxBvh const bvh = build_minmax_bvh(mesh, opt);
+  RefitPlan plan;
+  for (auto _ : state) {
+    plan = make_refit_plan(bvh, mesh);
+    benchmark::DoNotOptimize(plan.ids());
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(mesh.cell_count()));
+  state.SetLabel("make_refit_plan");
+  state.counters["plan B/cell"] = double(plan.bytes()) / double(mesh.cell_count());
+}
+
+void BM_make_plan(benchmark::State& state) {
+  if (state.range(1) == 4) run_make_plan<4>(state);
+  else run_make_plan<8>(state);
+}
+
 /// Tree statistics of one builder's BVH (built once, outside the timing).
 template <int N> void run_tree(benchmark::State& state) {
   auto const& gen = cached_mesh<N>(uint64_t(state.range(2)));
@@ -193,6 +250,8 @@ void refit_args(benchmark::internal::Benchmark* b) {
 
 BENCHMARK(BM_build)->Apply(build_args)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_refit)->Apply(refit_args)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_refit_plan)->Apply(refit_args)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_make_plan)->Apply(refit_args)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_tree)->Apply(tree_args)->Unit(benchmark::kMillisecond)->Iterations(1);
 
 BENCHMARK_MAIN();

@@ -145,6 +145,22 @@ struct F4 {
   friend F4 max(F4 a, F4 b) noexcept { return {xsimd::max(a.x, b.x)}; }
   /// Truncation to int of lanes known to lie in [0, 2^31).
   void to_int(int32_t* out) const noexcept { xsimd::batch_cast<int32_t>(x).store_unaligned(out); }
+  /// Lane L (a shuffle, no store).
+  template <int L> float lane() const noexcept {
+    __m128 const v = x;
+    return _mm_cvtss_f32(_mm_shuffle_ps(v, v, L * 0x55));
+  }
+  /// lanes 0-2: a0 * b0 + a1 * b1 + a2 * b2, lane 3 ignored; no store.
+  friend float dot3(F4 a, F4 b) noexcept {
+    __m128 const t = (a.x * b.x);
+    __m128 const s = _mm_add_ss(t, _mm_movehl_ps(t, t));           // t0 + t2
+    return _mm_cvtss_f32(_mm_add_ss(s, _mm_shuffle_ps(t, t, 0x55)));  // + t1
+  }
+  /// Lanes rotated: (x1, x2, x0, x3).
+  F4 yzx() const noexcept {
+    __m128 const v = x;
+    return {xsimd::batch<float, xsimd::sse2>(_mm_shuffle_ps(v, v, _MM_SHUFFLE(3, 0, 2, 1)))};
+  }
   /// Bit k set when lane k of `lo` and `hi` is finite and lo <= hi (x - x
   /// is 0 for finite x, NaN for inf and NaN).
   friend int finite_ordered(F4 lo, F4 hi) noexcept {
@@ -168,6 +184,9 @@ struct F4 {
   void to_int(int32_t* out) const noexcept {
     for (int k = 0; k < 4; ++k) out[k] = int32_t(x[k]);
   }
+  template <int L> float lane() const noexcept { return x[L]; }
+  friend float dot3(F4 a, F4 b) noexcept { return a.x[0] * b.x[0] + a.x[2] * b.x[2] + a.x[1] * b.x[1]; }
+  F4 yzx() const noexcept { return {{x[1], x[2], x[0], x[3]}}; }
   friend int finite_ordered(F4 lo, F4 hi) noexcept {
     int m = 0;
     for (int k = 0; k < 4; ++k)
@@ -183,6 +202,15 @@ inline float half_area(F4 lo, F4 hi) noexcept {
   (hi - lo).store(d);
   if (!(d[0] >= 0.f && d[1] >= 0.f && d[2] >= 0.f)) return 0.f;
   return d[0] * d[1] + d[1] * d[2] + d[2] * d[0];
+}
+
+/// Half the surface area of a box [lo, hi] known to be non-empty (lanes
+/// 0-2), in registers: dx dy + dz dx + dy dz. For the SAH sweeps, where it
+/// runs once per bin and plane; the result may differ from `half_area` in
+/// the last bit (another summation order), which only the sweeps compare.
+inline float half_area_nonempty(F4 lo, F4 hi) noexcept {
+  F4 const d = hi - lo;
+  return dot3(d, d.yzx());
 }
 
 /// Grows the 8 floats `acc` (lo xyz + vmin, hi xyz + vmax) by the 8 floats
@@ -277,17 +305,15 @@ inline F4 centroid4(ItemBox const& b) noexcept {
 }
 
 /// Two-ended in-place partition of slots [b, e) (sequential): those whose
-/// doubled centroid satisfies `goes_left(c)` come first.
+/// doubled centroid p (lanes 0-2) satisfies `goes_left(p)` come first.
 template <class Index, class Pred>
 Split partition_sequential(Slots<Index> const& s, uint64_t b, uint64_t e, Pred const& goes_left) {
   PointBounds4 left, right;
   uint64_t i = b, j = e;  // [b, i) go left, [j, e) go right
-  alignas(16) float c[4];
   while (true) {
     while (i < j) {
       F4 const p = centroid4(s.box[i]);
-      p.store(c);
-      if (!goes_left(c)) {
+      if (!goes_left(p)) {
         right.grow(p);  // slot i goes right; find a left one behind it
         break;
       }
@@ -298,8 +324,7 @@ Split partition_sequential(Slots<Index> const& s, uint64_t b, uint64_t e, Pred c
     bool swapped = false;
     while (--j > i) {
       F4 const p = centroid4(s.box[j]);
-      p.store(c);
-      if (goes_left(c)) {
+      if (goes_left(p)) {
         left.grow(p);
         s.swap(i, j);
         ++i;
@@ -314,7 +339,7 @@ Split partition_sequential(Slots<Index> const& s, uint64_t b, uint64_t e, Pred c
 }
 
 /// Reorders slots [b, e) so that those whose doubled centroid satisfies
-/// `goes_left(c)` come first; returns the split with both sides' centroid
+/// `goes_left(p)` (p: F4, lanes 0-2) come first; returns the split with both sides' centroid
 /// bounds (so children never rescan for them). In place. Large ranges: every
 /// fixed block is partitioned on its own (in parallel), then the right-goers
 /// left of the split point are swapped, in order, with the left-goers right
@@ -542,11 +567,11 @@ inline void assemble(Subtree& root, NodeVector& nodes, ValueRanges& ranges) {
 /// Subtrees this deep below the root are fitted as parallel tasks (64).
 inline constexpr uint32_t parallel_fit_depth = 6;
 
-/// Value range of node `i` from its slots (leaf) or its children's ranges.
-template <class SlotRange>
-inline void fit_node(Node const* nodes, NodeRange* ranges, SlotRange const& slot_range, uint64_t i) {
-  Node const& n = nodes[i];
-  if (n.is_leaf()) {
+/// The value range of a leaf from `slot_range(s)` (the NodeRange of item-list slot s).
+template <class SlotRange> struct SlotLeafRange {
+  SlotRange const& slot_range;
+
+  NodeRange operator()(uint64_t /*node*/, Node const& n) const {
     NodeRange r{inf_f, -inf_f};
     uint64_t const first = n.first_item();
     for (uint64_t s = first; s < first + n.item_count(); ++s) {
@@ -554,7 +579,16 @@ inline void fit_node(Node const* nodes, NodeRange* ranges, SlotRange const& slot
       r.vmin = std::min(r.vmin, x.vmin);
       r.vmax = std::max(r.vmax, x.vmax);
     }
-    ranges[i] = r;
+    return r;
+  }
+};
+
+/// Value range of node `i`: `leaf_range(i, node)` for a leaf, else the union of its children's.
+template <class LeafRange>
+inline void fit_node(Node const* nodes, NodeRange* ranges, LeafRange const& leaf_range, uint64_t i) {
+  Node const& n = nodes[i];
+  if (n.is_leaf()) {
+    ranges[i] = leaf_range(i, n);
     return;
   }
   uint64_t const l = n.left(), rgt = n.right();
@@ -576,23 +610,23 @@ inline uint64_t subtree_end(Node const* nodes, uint64_t i) {
   }
 }
 
-/// Sets the value range of node `i` and everything below from
-/// `slot_range(s)` (the NodeRange of item-list slot s); bounds and topology
+/// Sets the value range of node `i` and everything below, a leaf's from
+/// `leaf_range(node, Node const&)` (see SlotLeafRange); bounds and topology
 /// untouched. Below the task depth a subtree is one reverse sweep over its
 /// block of nodes (children come after their parent), no recursion; leaves
 /// cover consecutive slots, so a slot-ordered source is read in order.
-template <class SlotRange>
-void fit_ranges(Node const* nodes, NodeRange* ranges, SlotRange const& slot_range, uint64_t i, uint32_t depth) {
+template <class LeafRange>
+void fit_ranges(Node const* nodes, NodeRange* ranges, LeafRange const& leaf_range, uint64_t i, uint32_t depth) {
   Node const& n = nodes[i];
   if (!n.is_leaf()) {
     if (depth < parallel_fit_depth) {
-      tbb::parallel_invoke([&] { fit_ranges(nodes, ranges, slot_range, n.left(), depth + 1); },
-                           [&] { fit_ranges(nodes, ranges, slot_range, n.right(), depth + 1); });
+      tbb::parallel_invoke([&] { fit_ranges(nodes, ranges, leaf_range, n.left(), depth + 1); },
+                           [&] { fit_ranges(nodes, ranges, leaf_range, n.right(), depth + 1); });
     } else {
-      for (uint64_t k = subtree_end(nodes, i); k-- > n.left();) fit_node(nodes, ranges, slot_range, k);
+      for (uint64_t k = subtree_end(nodes, i); k-- > n.left();) fit_node(nodes, ranges, leaf_range, k);
     }
   }
-  fit_node(nodes, ranges, slot_range, i);
+  fit_node(nodes, ranges, leaf_range, i);
 }
 
 }  // namespace detail

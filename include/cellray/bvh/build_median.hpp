@@ -29,6 +29,11 @@ template <class Index> struct MedianSplitter {
     if (depth >= depth_guard) return n <= max_leaf ? leaf : object_median_split(slots, b, e, axis);
     float const mid = cb.lo[axis] + 0.5f * extent;
     auto const goes_left = [axis, mid](float const* c) { return c[axis] < mid; };
+    // The partition's predicate reads a lane fixed at compile time.
+    auto const partition = [&](auto lane) {
+      constexpr int k = decltype(lane)::value;
+      return partition_slots(slots, b, e, [mid](F4 p) { return p.lane<k>() < mid; });
+    };
     if (n <= max_leaf) {
       Box3 all, l, r;
       uint64_t nl = 0;
@@ -42,7 +47,9 @@ template <class Index> struct MedianSplitter {
       }
       if (nl == 0 || nl == n || !split_pays(costs, all, l, nl, r, n - nl)) return leaf;
     }
-    Split const sp = partition_slots(slots, b, e, goes_left);
+    Split const sp = axis == 0   ? partition(std::integral_constant<int, 0>{})
+                     : axis == 1 ? partition(std::integral_constant<int, 1>{})
+                                 : partition(std::integral_constant<int, 2>{});
     // mid rounds onto lo when the extent is a few ulps: fall back to counts.
     if (sp.m == b || sp.m == e) return n <= max_leaf ? leaf : object_median_split(slots, b, e, axis);
     return sp;

@@ -4,4 +4,5 @@
 #include "build.hpp"
 #include "node.hpp"
 #include "refit.hpp"
+#include "refit_plan.hpp"
 #include "stats.hpp"

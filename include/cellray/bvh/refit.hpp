@@ -21,7 +21,7 @@ template <class SlotRange> void fit_slot_ranges(MinMaxBvh const& bvh, SlotRange 
     out[0] = {inf_f, -inf_f};
     return;
   }
-  fit_ranges(bvh.nodes(), out.data(), slot_range, 0, 0);
+  fit_ranges(bvh.nodes(), out.data(), SlotLeafRange<SlotRange>{slot_range}, 0, 0);
 }
 
 /// Fits `out` from `item_range(id)` (NodeRange of item id).
@@ -35,7 +35,8 @@ template <class ItemRange> void fit_ranges_any(MinMaxBvh const& bvh, ItemRange c
   }
 }
 
-inline void refit_pieces(MinMaxBvh const& bvh, std::vector<MeshPiece> const& pieces, ValueRanges& out, Isa isa) {
+/// Throws InvalidArgument unless `pieces` match the tree's piece table (count and cell counts).
+inline void check_refit_pieces(MinMaxBvh const& bvh, std::vector<MeshPiece> const& pieces) {
   auto const& offsets = bvh.piece_offsets();
   if (pieces.size() != bvh.piece_count())
     throw InvalidArgument("refit with " + std::to_string(pieces.size()) + " pieces of a BVH built over " +
@@ -44,6 +45,11 @@ inline void refit_pieces(MinMaxBvh const& bvh, std::vector<MeshPiece> const& pie
     if (pieces[p].cell_count() != offsets[p + 1] - offsets[p])
       throw InvalidArgument("refit: piece " + std::to_string(p) + " has " + std::to_string(pieces[p].cell_count()) +
                             " cells, the BVH was built over " + std::to_string(offsets[p + 1] - offsets[p]));
+}
+
+inline void refit_pieces(MinMaxBvh const& bvh, std::vector<MeshPiece> const& pieces, ValueRanges& out, Isa isa) {
+  check_refit_pieces(bvh, pieces);
+  auto const& offsets = bvh.piece_offsets();
   uint64_t const n = bvh.item_count();
   std::unique_ptr<float[]> vmin(new float[n]), vmax(new float[n]);
   // Per-cell ranges with the SIMD CellRanges (streaming over the cells),
