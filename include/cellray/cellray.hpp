@@ -6,6 +6,7 @@
 
 #include "bvh/build.hpp"
 #include "bvh/refit.hpp"
+#include "bvh/refit_plan.hpp"
 #include "bvh/stats.hpp"
 #include "mesh/cell_mesh.hpp"
 #include "mesh/generate.hpp"
