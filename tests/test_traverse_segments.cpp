@@ -40,7 +40,7 @@ TEST_CASE("segment lists keep the nearest max_segments per ray in any arrival or
   std::mt19937 rng(7);
   for (int round = 0; round < 20; ++round) {
     std::shuffle(order.begin(), order.end(), rng);
-    q->reset(f.tree, f.mesh, 0.f, 1000.f);
+    q->reset(f.tree, f.mesh, f.rays, 0.f, 1000.f);
     for (int i : order) {
       FieldSegment s{};
       s.s.t_in = float(i), s.s.t_out = float(i) + 1.f, s.s.cell = uint64_t(i);

@@ -326,6 +326,77 @@ inline void shade_batch(DvrShading const& sh, float inv_gradient_full, vfloat<A>
   cb = cb + m * (simd::min(one, cb * lit + spec) - cb);
 }
 
+/// e^x per lane (xsimd's vector exp; std::exp for the scalar arch).
+template <class B> inline vfloat<B> vexp(vfloat<B> const& x) {
+  if constexpr (std::is_same_v<B, scalar>) return std::exp(x);
+  else return xsimd::exp(x);
+}
+
+/// One ray's sorted segments over [from, to], unshaded: the pieces (midpoint
+/// value and length) listed scalar, then their transfer-function colour and
+/// opacity W pieces at a time (table gathers, vector exp), then composited
+/// front to back in order, scalar, with exact termination.
+template <class A>
+inline void integrate_pieces(PreparedTf const& ptf, float step, float termination, FieldSegment const* seg,
+                             uint8_t const* order, int n, float from, float to, float (&col)[3], float& alpha) {
+  constexpr int W = width<A>;
+  constexpr int cap = 128;  // pieces per batch (a multiple of every W)
+  alignas(64) float pv[cap], pd[cap];
+  alignas(64) float pr[cap], pg[cap], pb[cap], pa[cap];
+  vfloat<A> const lo(ptf.lo), scale(ptf.scale), zero(0.f), one(1.f);
+  vfloat<A> const last(float(ptf.r.size() - 1) - 1e-3f);
+  auto flush = [&](int np) {
+    for (int j = np; j % W; ++j) pv[j] = ptf.lo, pd[j] = 0.f;  // padding: zero length, no opacity
+    for (int j = 0; j < np; j += W) {
+      vfloat<A> const v = simd::load<A>(pv + j);
+      vmask<A> const ok = !simd::isnan(v);
+      vfloat<A> const x = simd::min(simd::max((simd::select(ok, v, lo) - lo) * scale, zero), last);
+      vint<A> const i = TfTable<A>::template xsimd_trunc<A>(x);
+      vfloat<A> const f = x - TfTable<A>::template to_float<A>(i);
+      vint<A> const i1 = i + vint<A>(1);
+      auto lerp = [&](std::vector<float> const& t) {
+        vfloat<A> const a = simd::gather(t.data(), i);
+        return a + f * (simd::gather(t.data(), i1) - a);
+      };
+      vfloat<A> const lt = simd::select(ok, simd::min(lerp(ptf.log_transmittance), zero), zero);
+      simd::store(pa + j, one - vexp<A>(lt * simd::load<A>(pd + j)));
+      simd::store(pr + j, lerp(ptf.r)), simd::store(pg + j, lerp(ptf.g)), simd::store(pb + j, lerp(ptf.b));
+    }
+    for (int j = 0; j < np && alpha < termination; ++j) {
+      float const w = std::min((1.f - alpha) * pa[j], termination - alpha);  // exact termination
+      col[0] += w * pr[j], col[1] += w * pg[j], col[2] += w * pb[j];
+      alpha += w;
+    }
+  };
+  int np = 0;
+  float prev = from;
+  for (int si = 0; si < n && alpha < termination; ++si) {
+    FieldSegment const& fs = seg[order ? order[si] : si];
+    float const a = std::max(fs.s.t_in, prev), e = std::min(fs.s.t_out, to);
+    if (!(e > a)) continue;
+    int const pieces = std::max(1, int(std::ceil((e - a) / step)));
+    float const d = (e - a) / float(pieces);
+    for (int i = 0; i < pieces; ++i) {
+      pv[np] = fs.value_at(fs.lambda(a + (float(i) + 0.5f) * d));
+      pd[np++] = d;
+      if (np == cap) {
+        flush(np), np = 0;
+        if (!(alpha < termination)) return;
+      }
+    }
+    prev = e;
+  }
+  if (np) flush(np);
+}
+
+/// What cell-segment DVR reuses from packet to packet of a tile: the
+/// segment queries are large (max_segments per lane) and allocated once.
+template <class A> struct SegmentScratch {
+  std::unique_ptr<SegmentQuery<A, 4>> tet_query;
+  std::unique_ptr<SegmentQuery<A, 8>> hex_query;
+  std::vector<FieldSegment> lane_segs[width<A>];
+};
+
 /// Cell-segment DVR: the cells each ray crosses, window by window, each
 /// segment integrated in pieces of at most `step` with the exact transfer
 /// function at each piece's midpoint (midpoint rule). The field along a
@@ -334,7 +405,8 @@ inline void shade_batch(DvrShading const& sh, float inv_gradient_full, vfloat<A>
 template <class A>
 void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> const& inside,
                         vfloat<A> const& t_enter, vfloat<A> const& t_exit, DvrParams const& p, Traversal how,
-                        int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca) {
+                        int threshold, SegmentScratch<A>& scratch, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb,
+                        vfloat<A>& ca) {
   constexpr int W = width<A>;
   PreparedTf const& ptf = *s.tf;
   float const last_entry = float(ptf.r.size() - 1) - 1e-3f;
@@ -350,11 +422,8 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
   float col[W][3] = {}, alpha[W] = {}, t_cur[W];
   uint32_t live = simd::movemask(inside);
   for (int l = 0; l < W; ++l) t_cur[l] = enter[l];
-  // Queries are large (max_segments per lane): allocated once per packet, reset per window.
   bool const single = s.parts.size() == 1;
-  std::unique_ptr<SegmentQuery<A, 4>> tet_query;
-  std::unique_ptr<SegmentQuery<A, 8>> hex_query;
-  std::vector<FieldSegment> lane_segs[W];
+  auto& lane_segs = scratch.lane_segs;
   while (live) {
     if (!single)
       for (auto& v : lane_segs) v.clear();
@@ -367,21 +436,22 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
     // One part (the common case): integrate straight from the query's sorted
     // per-lane arrays. Several parts: merge their segments per lane.
     FieldSegment const* seg_of[W] = {};
+    uint8_t const* order_of[W] = {};  // nullptr: seg_of is in order
     int seg_count[W] = {};
     for (PreparedPart const& part : s.parts) {
       auto run = [&](auto const& mesh, auto& q) {
         constexpr int N = std::decay_t<decltype(mesh)>::corners;
         if (!q) q = std::make_unique<SegmentQuery<A, N>>(part.tree, mesh, r, s.windows, lo, hi, shade);
-        else q->reset(part.tree, mesh, lo, hi);
+        else q->reset(part.tree, mesh, r, lo, hi);
         collect_segments(*q, act, how, threshold);
         for (int l = 0; l < W; ++l) {
           end[l] = std::min(end[l], q->cut[l]);
-          if (single) seg_of[l] = q->seg[l], seg_count[l] = q->count[l];
+          if (single) seg_of[l] = q->seg[l], order_of[l] = q->order[l], seg_count[l] = q->count[l];
           else lane_segs[l].insert(lane_segs[l].end(), q->seg[l], q->seg[l] + q->count[l]);
         }
       };
-      if (part.tets) run(*part.tets, tet_query);
-      else run(*part.hexes, hex_query);
+      if (part.tets) run(*part.tets, scratch.tet_query);
+      else run(*part.hexes, scratch.hex_query);
     }
     uint32_t next = 0;
     for (uint32_t b = live; b; b &= b - 1) {
@@ -402,8 +472,11 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
       }
       glm::vec3 const dir(dx[size_t(l)], dy[size_t(l)], dz[size_t(l)]);
       float prev = t_cur[l];
-      for (int si = 0; si < seg_count[l]; ++si) {
-        FieldSegment const& fs = seg_of[l][si];
+      if (!shade)  // W pieces at a time; gradient shading below, piece by piece
+        integrate_pieces<A>(ptf, s.step, p.termination, seg_of[l], order_of[l], seg_count[l], t_cur[l], end[l], col[l],
+                            alpha[l]);
+      for (int si = 0; si < seg_count[l] && shade; ++si) {
+        FieldSegment const& fs = seg_of[l][order_of[l] ? order_of[l][si] : si];
         CellSegment const& sg = fs.s;
         float const a = std::max(sg.t_in, prev), e = std::min(sg.t_out, end[l]);
         if (!(e > a)) continue;
@@ -556,6 +629,7 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
                      Tile const& tile, Image& out) {
   constexpr int W = width<A>;
   int const threshold = o.hybrid_threshold > 0 ? o.hybrid_threshold : std::max(1, W / 4);
+  SegmentScratch<A> scratch;
   for (int by = tile.y0; by < tile.y0 + tile.h; by += block_h<A>)
     for (int bx = tile.x0; bx < tile.x0 + tile.w; bx += block_w<A>) {
       int px[W], py[W];
@@ -572,7 +646,7 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
       if (p.mode == DvrMode::samples)
         integrate_samples<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, cr, cg, cb, ca);
       else
-        integrate_segments<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, cr, cg, cb, ca);
+        integrate_segments<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, scratch, cr, cg, cb, ca);
       auto const ar = simd::to_array<A>(cr), ag = simd::to_array<A>(cg), ab = simd::to_array<A>(cb),
                  aa = simd::to_array<A>(ca);
       for (int l = 0; l < W; ++l) {

@@ -63,24 +63,31 @@ template <class A, int N> struct SegmentQuery {
   static constexpr int W = width<A>;
   TreeView const* tree_;
   CellMesh<N> const* mesh_;
-  RayPacket<A> const& r;
+  RayPacket<A> r;  ///< a copy: the query outlives a packet (reset binds the next)
   ValueWindows const& windows;
   vfloat<A> lo, hi;  ///< window per lane
+  /// min(hi, cut) per lane: a cell entered at or beyond it cannot be kept,
+  /// so the traversal's t_hi() and the cell culls stop there (a full list
+  /// prunes the subtrees behind its cut).
+  vfloat<A> limit;
   bool gradients;    ///< fill FieldSegment::gradient
   int count[W];
-  float cut[W];  ///< smallest t_in that did not fit (inf: none)
+  alignas(64) float cut[W];  ///< smallest t_in that did not fit (inf: none)
   FieldSegment seg[W][max_segments];
+  float key[W][max_segments];  ///< seg[l][i].s.t_in, contiguous for the farthest-segment scan
+  uint8_t order[W][max_segments];  ///< after sort(): seg[l][order[l][i]] front to back
 
   SegmentQuery(TreeView const& t, CellMesh<N> const& m, RayPacket<A> const& rays, ValueWindows const& w,
                vfloat<A> const& t_lo, vfloat<A> const& t_hi, bool want_gradients = false)
-      : tree_(&t), mesh_(&m), r(rays), windows(w), lo(t_lo), hi(t_hi), gradients(want_gradients) {
+      : tree_(&t), mesh_(&m), r(rays), windows(w), lo(t_lo), hi(t_hi), limit(t_hi), gradients(want_gradients) {
     for (int l = 0; l < W; ++l) count[l] = 0, cut[l] = std::numeric_limits<float>::infinity();
   }
 
-  /// The same rays, another window (and possibly another part of the same
-  /// cell type): what the constructor does, without a new allocation.
-  void reset(TreeView const& t, CellMesh<N> const& m, vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
-    tree_ = &t, mesh_ = &m, lo = t_lo, hi = t_hi;
+  /// Another packet, window or part: what the constructor does, without a
+  /// new allocation (a renderer keeps one query per tile).
+  void reset(TreeView const& t, CellMesh<N> const& m, RayPacket<A> const& rays, vfloat<A> const& t_lo,
+             vfloat<A> const& t_hi) {
+    tree_ = &t, mesh_ = &m, r = rays, lo = t_lo, hi = t_hi, limit = t_hi;
     for (int l = 0; l < W; ++l) count[l] = 0, cut[l] = std::numeric_limits<float>::infinity();
   }
   TreeView const& tree() const { return *tree_; }
@@ -90,23 +97,33 @@ template <class A, int N> struct SegmentQuery {
   bool node_relevant(float vmin, float vmax) const { return vmin <= vmax && windows.overlaps(vmin, vmax); }
   vmask<A> relevant(vfloat<A> const& vmin, vfloat<A> const& vmax) const { return windows_overlap<A>(windows, vmin, vmax); }
   vfloat<A> t_lo() const { return lo; }
-  vfloat<A> t_hi() const { return hi; }
+  vfloat<A> t_hi() const { return limit; }
 
   /// Keeps the `max_segments` segments with the smallest t_in per lane;
   /// `cut` becomes the smallest t_in of those dropped, so every segment with
   /// t_in < cut is kept (arrival order is the traversal's, not t's).
   void add(int l, FieldSegment const& s) {
-    if (s.s.t_in >= cut[l]) return;
+    if (int const i = slot(l, s.s.t_in); i >= 0) seg[l][i] = s;
+  }
+
+  /// Where lane l keeps a segment entered at t_in (add's rule), its key
+  /// already set; -1: not kept. The caller fills seg[l][slot] in place.
+  int slot(int l, float t_in) {
+    if (t_in >= cut[l]) return -1;
     if (count[l] < max_segments) {
-      seg[l][count[l]++] = s;
-      return;
+      key[l][count[l]] = t_in;
+      return count[l]++;
     }
     int far = 0;
     for (int i = 1; i < max_segments; ++i)
-      if (seg[l][i].s.t_in > seg[l][far].s.t_in) far = i;
-    float dropped = s.s.t_in;
-    if (s.s.t_in < seg[l][far].s.t_in) dropped = seg[l][far].s.t_in, seg[l][far] = s;
-    cut[l] = std::min(cut[l], dropped);
+      if (key[l][i] > key[l][far]) far = i;
+    if (t_in >= key[l][far]) {
+      cut[l] = t_in;  // t_in < cut here
+      return -1;
+    }
+    cut[l] = std::min(cut[l], key[l][far]);
+    key[l][far] = t_in;
+    return far;
   }
 
   /// The hex field on the ray at lambda (see the file comment): value and
@@ -129,7 +146,7 @@ template <class A, int N> struct SegmentQuery {
     RayBatch<A> const ray = ray_batch(r);
     // The window clip: most cells of a leaf miss every lane, and it skips
     // the face-value interpolation for them (bit-identical where it hits).
-    typename Ops::Clip const k = Ops::clip_window(ray, c, m, lo, hi);
+    typename Ops::Clip const k = Ops::clip_window(ray, c, m, lo, t_hi());
     m = k.hit && !has_nan_value(c);
     uint32_t const mb = simd::movemask(m);
     if (!mb) return;
@@ -164,6 +181,7 @@ template <class A, int N> struct SegmentQuery {
     if (gradients)
       for (int a = 0; a < 3; ++a)
         for (int i = 0; i < 4; ++i) ga[a][i] = simd::to_array<A>(cg[a][i]);
+    bool cut_fell = false;
     for (uint32_t b = mb; b; b &= b - 1) {
       int const l = __builtin_ctz(b);
       float const vmin = std::min(sin[l], sout[l]), vmax = std::max(sin[l], sout[l]);
@@ -171,13 +189,18 @@ template <class A, int N> struct SegmentQuery {
       // end values, so a transparent range is skipped here too. Hexes may
       // exceed their end values inside; they are always kept.
       if (N == 4 && !windows.overlaps(vmin, vmax)) continue;
-      FieldSegment fs;
+      float const before = cut[l];
+      int const i = slot(l, tin[l]);
+      cut_fell = cut_fell || cut[l] < before;
+      if (i < 0) continue;
+      FieldSegment& fs = seg[l][i];  // written in place: 88 bytes, the gradient only when asked for
       fs.s = CellSegment{tin[l], tout[l], sin[l], sout[l], 0, uint64_t(uint32_t(cell[l]))};
-      for (int i = 0; i < 4; ++i) fs.value[i] = va[i][size_t(l)];
-      for (int a = 0; a < 3; ++a)
-        for (int i = 0; i < 4; ++i) fs.gradient[a][i] = gradients ? ga[a][i][size_t(l)] : 0.f;
-      add(l, fs);
+      for (int k = 0; k < 4; ++k) fs.value[k] = va[k][size_t(l)];
+      if (gradients)
+        for (int a = 0; a < 3; ++a)
+          for (int k = 0; k < 4; ++k) fs.gradient[a][k] = ga[a][k][size_t(l)];
     }
+    if (cut_fell) limit = simd::min(hi, simd::load<A>(cut));
   }
 
   // A cell whose corner values all map to zero opacity is transparent
@@ -194,7 +217,7 @@ template <class A, int N> struct SegmentQuery {
       if (!windows.overlaps(k.lo, k.hi)) continue;  // false for NaN
       order_corners(mesh_->vertex_count(), k);
       CellCorners<A, N> const c = broadcast<A, N>(*mesh_, k);
-      vmask<A> const in_box = m && cell_box_hit<A, N>(r, c, lo, hi);
+      vmask<A> const in_box = m && cell_box_hit<A, N>(r, c, lo, t_hi());
       if (simd::any(in_box)) visit(c, in_box, vint<A>(int32_t(cell)));
     }
   }
@@ -207,10 +230,19 @@ template <class A, int N> struct SegmentQuery {
     if (simd::any(visible)) visit(c, visible, cv);
   }
 
-  /// Sorts each lane's segments front to back.
+  /// Orders each lane's segments front to back: seg[l][order[l][i]] is the
+  /// i-th by t_in. An insertion sort of one-byte indices on the keys: the
+  /// traversal delivers segments nearly in order, and nothing large moves.
   void sort() {
-    for (int l = 0; l < W; ++l)
-      std::sort(seg[l], seg[l] + count[l], [](FieldSegment const& a, FieldSegment const& b) { return a.s.t_in < b.s.t_in; });
+    for (int l = 0; l < W; ++l) {
+      float const* k = key[l];
+      uint8_t* o = order[l];
+      for (int i = 0; i < count[l]; ++i) {
+        int j = i;
+        while (j > 0 && k[o[j - 1]] > k[i]) o[j] = o[j - 1], --j;
+        o[j] = uint8_t(i);
+      }
+    }
   }
 };
 
