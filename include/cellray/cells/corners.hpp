@@ -64,6 +64,14 @@ template <class A> struct PointBatch {
 template <class A, int N> struct CellCorners {
   vfloat<A> x[N], y[N], z[N], s[N];
   vint<A> id[N];
+  /// True when every lane holds the same cell (set by broadcast, the packet
+  /// loader); `uniform_key` then holds its ordering keys as scalars, so the
+  /// kernels take per-cell decisions (a hex face's canonical corner order)
+  /// once in scalar code instead of per lane with selects. The decisions
+  /// are the same comparisons on the same keys, so both ways give bit
+  /// identical results. False from gather_corners and for hand-built corners.
+  bool uniform = false;
+  int32_t uniform_key[N];
   Vec3<A> p(int i) const { return {x[i], y[i], z[i]}; }
 };
 
@@ -164,7 +172,9 @@ CELLRAY_FORCE_INLINE CellCorners<A, N> broadcast(CellMesh<N> const& mesh, Scalar
     c.z[i] = vfloat<A>(q[2]);
     c.s[i] = vfloat<A>(k.s[i]);
     c.id[i] = vint<A>(k.key[i]);
+    c.uniform_key[i] = k.key[i];
   }
+  c.uniform = true;
   return c;
 }
 

@@ -74,13 +74,15 @@ inline RayPacket<A> camera_packet(Camera const& cam, Tile const& tile, int bx, i
 template <class A> struct SceneHit {
   vfloat<A> t;
   vint<A> iso, item, part;  ///< part: index into PreparedScene::parts
+  Vec3<A> grad{};           ///< hex hits, when asked for: analytic gradient (FirstHitQuery::grad)
 };
 
 template <class A, int N>
 inline void hit_part(PreparedPart const& part, CellMesh<N> const& mesh, RayPacket<A> const& r, vmask<A> active,
                      IsoSet const& isos, CellIsoOptions const& roots, Traversal how, int threshold, int part_index,
-                     SceneHit<A>& best) {
+                     SceneHit<A>& best, bool gradient) {
   FirstHitQuery<A, N> q{part.tree, mesh, r, isos, roots, {best.t, vint<A>(-1), vint<A>(-1)}};
+  q.want_gradient = gradient;
   switch (how) {
     case Traversal::packet: traverse_packet<A>(part.tree, r, active, q); break;
     case Traversal::hybrid: traverse_packet<A>(part.tree, r, active, q, 0, threshold); break;
@@ -92,16 +94,18 @@ inline void hit_part(PreparedPart const& part, CellMesh<N> const& mesh, RayPacke
   best.iso = simd::select(bi, q.hit.iso, best.iso);
   best.item = simd::select(bi, q.hit.item, best.item);
   best.part = simd::select(bi, vint<A>(part_index), best.part);
+  if (N == 8 && gradient) best.grad = select<A>(better, q.grad, best.grad);
 }
 
 template <class A>
+/// `hex_gradient`: hex hits also bring their analytic gradient (SceneHit::grad).
 inline SceneHit<A> nearest_hit(PreparedScene const& s, RayPacket<A> const& r, vmask<A> active, IsoSet const& isos,
-                               CellIsoOptions const& roots, Traversal how, int threshold) {
+                               CellIsoOptions const& roots, Traversal how, int threshold, bool hex_gradient = false) {
   SceneHit<A> best{r.tmax, vint<A>(-1), vint<A>(-1), vint<A>(-1)};
   for (size_t p = 0; p < s.parts.size(); ++p) {
     PreparedPart const& part = s.parts[p];
-    if (part.tets) hit_part<A>(part, *part.tets, r, active, isos, roots, how, threshold, int(p), best);
-    else hit_part<A>(part, *part.hexes, r, active, isos, roots, how, threshold, int(p), best);
+    if (part.tets) hit_part<A>(part, *part.tets, r, active, isos, roots, how, threshold, int(p), best, false);
+    else hit_part<A>(part, *part.hexes, r, active, isos, roots, how, threshold, int(p), best, hex_gradient);
   }
   return best;
 }
@@ -151,8 +155,13 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
       // Front-to-back layers: continue behind semi-transparent surfaces.
       for (int layer = 0; layer < 16 && live; ++layer) {
         r.tmin = simd::load<A>(tmin);
-        SceneHit<A> const h = nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots, o.traversal, threshold);
+        // Hex hits shade from the gradient the iso query computed per cell
+        // (analytic normals); tets and central differences per lane below.
+        bool const hex_gradient = p.normals == GradientMethod::analytic;
+        SceneHit<A> const h = nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots, o.traversal, threshold,
+                                             hex_gradient);
         auto const t = simd::to_array<A>(h.t);
+        auto const gx = simd::to_array<A>(h.grad.x), gy = simd::to_array<A>(h.grad.y), gz = simd::to_array<A>(h.grad.z);
         auto const iso = simd::to_array<A>(h.iso), item = simd::to_array<A>(h.item), part = simd::to_array<A>(h.part);
         auto const dx = simd::to_array<A>(r.dx), dy = simd::to_array<A>(r.dy), dz = simd::to_array<A>(r.dz);
         // Hit points, normals and the light per lane; shadow and AO rays
@@ -165,7 +174,13 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           hit_bits |= 1u << l;
           glm::vec3 const d(dx[l], dy[l], dz[l]);
           pos[l] = cam.eye + t[l] * d;
-          nrm[l] = normal_at(s.parts[size_t(part[l])], uint64_t(item[l]), pos[l], d, p.normals);
+          if (hex_gradient && s.parts[size_t(part[l])].hexes) {
+            Vec3<scalar> const g{gx[l], gy[l], gz[l]}, dv{d.x, d.y, d.z};
+            Vec3<scalar> const n = face_forward<scalar>(shading_normal<scalar>(g, dv), dv);
+            nrm[l] = glm::vec3(n.x, n.y, n.z);
+          } else {
+            nrm[l] = normal_at(s.parts[size_t(part[l])], uint64_t(item[l]), pos[l], d, p.normals);
+          }
           ldir[l] = headlight ? -glm::normalize(d) : light;
           IsoSurface const& surf = p.surfaces[size_t(iso[l])];
           base[l] = surf.color;
