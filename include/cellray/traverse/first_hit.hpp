@@ -74,24 +74,37 @@ template <class A, int N> struct FirstHitQuery {
       CellCorners<A, N> c;
       if (!broadcast_corners_if_iso<A, N>(mesh, tree.item(i), isos, c)) continue;
       if (simd::none(m && cell_box_hit<A, N>(r, c, r.tmin, hit.t))) continue;
-      cell(c, m, vint<A>(int32_t(i)));
+      if constexpr (N == 8) {
+        if (want_gradient) {
+          hex_cell_with_gradient(c, m, vint<A>(int32_t(i)));
+          continue;
+        }
+      }
+      CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method);
+      if (simd::any(h.hit)) update(h.hit, h.t, h.iso_index, vint<A>(int32_t(i)));
     }
   }
 
   void leaf_items(vint<A> const& slots, vmask<A> const& m) {
-    cell(gather_corners<A, N>(mesh, slot_cells<A>(tree, slots, m), m), m, slots);
+    CellCorners<A, N> const c = gather_corners<A, N>(mesh, slot_cells<A>(tree, slots, m), m);
+    if constexpr (N == 8) {
+      if (want_gradient) {
+        hex_cell_with_gradient(c, m, slots);
+        return;
+      }
+    }
+    CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method);
+    update(h.hit, h.t, h.iso_index, slots);
   }
 
-  /// Iso roots in one cell per lane (item-list slots `slots`) for lanes `m`.
-  CELLRAY_FORCE_INLINE void cell(CellCorners<A, N> const& c, vmask<A> const& m, vint<A> const& slots) {
-    bool const with_param = N == 8 && want_gradient;
+  /// Iso roots in one hex per lane (item-list slots `slots`) for lanes `m`,
+  /// keeping the gradient at each hit.
+  void hex_cell_with_gradient(CellCorners<A, N> const& c, vmask<A> const& m, vint<A> const& slots) {
     Vec3<A> u{};
-    CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method,
-                                          with_param ? &u : nullptr);
+    CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method, &u);
     if (simd::none(h.hit)) return;
     update(h.hit, h.t, h.iso_index, slots);
-    if constexpr (N == 8)
-      if (with_param) grad = select<A>(h.hit, gradient_hex(c, u), grad);
+    if constexpr (N == 8) grad = select<A>(h.hit, gradient_hex(c, u), grad);
   }
 
 
