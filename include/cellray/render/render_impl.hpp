@@ -98,8 +98,8 @@ inline void hit_part(PreparedPart const& part, CellMesh<N> const& mesh, RayPacke
   if (N == 8 && gradient) best.grad = select<A>(better, q.grad, best.grad);
 }
 
-template <class A>
 /// `hex_gradient`: hex hits also bring their analytic gradient (SceneHit::grad).
+template <class A>
 inline SceneHit<A> nearest_hit(PreparedScene const& s, RayPacket<A> const& r, vmask<A> active, IsoSet const& isos,
                                CellIsoOptions const& roots, Traversal how, int threshold, bool hex_gradient = false) {
   SceneHit<A> best{r.tmax, vint<A>(-1), vint<A>(-1), vint<A>(-1)};
