@@ -61,7 +61,23 @@ template <class A> struct PointBatch {
 /// so the loaders store the global vertex id itself when the mesh has at
 /// most 2^31 vertices, and the corner's rank among its cell's ids (0..N-1,
 /// compared on all 64 bits) beyond: the same order, exact for any id.
-template <class A, int N> struct CellCorners {
+namespace detail {
+/// Hexes only (CellCorners<A, 8>): `uniform` is true when every lane holds
+/// the same cell (set by broadcast, the packet loader), and `uniform_key`
+/// then holds its ordering keys as scalars, so the kernels take per-cell
+/// decisions (a face's canonical corner order) once in scalar code instead
+/// of per lane with selects. The decisions are the same comparisons on the
+/// same keys, so both ways give bit-identical results. False from
+/// gather_corners and for hand-built corners. Tets take no such decision
+/// and carry nothing (empty base).
+template <int N> struct UniformKeys {};
+template <> struct UniformKeys<8> {
+  bool uniform = false;
+  int32_t uniform_key[8];
+};
+}  // namespace detail
+
+template <class A, int N> struct CellCorners : detail::UniformKeys<N> {
   vfloat<A> x[N], y[N], z[N], s[N];
   vint<A> id[N];
   Vec3<A> p(int i) const { return {x[i], y[i], z[i]}; }
@@ -164,7 +180,9 @@ CELLRAY_FORCE_INLINE CellCorners<A, N> broadcast(CellMesh<N> const& mesh, Scalar
     c.z[i] = vfloat<A>(q[2]);
     c.s[i] = vfloat<A>(k.s[i]);
     c.id[i] = vint<A>(k.key[i]);
+    if constexpr (N == 8) c.uniform_key[i] = k.key[i];
   }
+  if constexpr (N == 8) c.uniform = true;
   return c;
 }
 

@@ -33,8 +33,21 @@
 // root inside the same bracket. Accuracy and miss rates against the double
 // reference (dense bracketing + bisection) are measured in
 // tests/test_cells_hex.cpp.
+//
+// Fast paths (structured grids stored as hexes are the common case, e.g. a
+// DNS box): a face whose canonical corners form a parallelogram is clipped
+// as its plane (no quadratic), decided from those corners alone so both
+// neighbours take the same path; a parallelepiped hex (affine map) takes the
+// cubic through its parametric segment as the exact ray field (no
+// inversions, no refinement). Packet leaves (every lane the same cell)
+// choose each face's canonical rotation once in scalar code
+// (CellCorners::uniform) instead of per lane. Bit identity between
+// neighbours and between the packet and SPMD loaders is tested in
+// tests/test_cells_hex_affine.cpp.
 
+#include <cstdint>
 #include <limits>
+#include <utility>
 
 #include "tet.hpp"
 
@@ -42,9 +55,13 @@ namespace cellray {
 inline namespace CELLRAY_ISA_NS {
 
 /// CellClip plus the trilinear coordinates (u, v, w) of the entry and exit
-/// points, read off the entry/exit patches (exact, not inverted).
+/// points, read off the entry/exit faces (exact, not inverted), and
+/// `affine`: every face of the lane's hex is a parallelogram (canonical
+/// corners, hex_affine_tolerance), i.e. the hex is a parallelepiped and its
+/// trilinear map affine; the iso root then needs no inversions.
 template <class A> struct HexClip : CellClip<A> {
   Vec3<A> u_in, u_out;
+  vmask<A> affine;
 };
 
 /// Containment tolerance in trilinear coordinates: inside means every
@@ -57,6 +74,10 @@ inline constexpr float hex_inside_tolerance = 1e-5f;
 /// 1e-5 on the step means the last iterate is already at rounding level.
 inline constexpr int hex_newton_cap = 12;
 inline constexpr float hex_newton_tol = 1e-5f;
+/// The cubic root's Newton iteration (lam in [0,1] across the clip
+/// interval) stops once every lane's step is below this: 2^-23, one float
+/// spacing just below 1.
+inline constexpr float hex_cubic_step_tol = 1.f / (1 << 23);
 /// Patch coordinates are accepted in [-tol, 1 + tol]: rounding of the
 /// quadratic's roots must not lose a crossing at a patch edge (ray through a
 /// hex edge or vertex). Canonical evaluation keeps neighbours consistent.
@@ -84,8 +105,42 @@ inline PatchCorner<A> select_corner(vmask<A> const& m, vmaski<A> const& mi, Patc
           select<A>(m, a.uvw, b.uvw)};
 }
 
-/// The face's corners in canonical order (see the file comment), per lane.
-template <class A> inline void canonical_patch(CellCorners<A, 8> const& c, int f, PatchCorner<A> q[4]) {
+/// The face's corner indices (into the cell's corners) in canonical order
+/// from scalar ordering keys: the comparisons of canonical_patch's lane
+/// path, once per cell (packet leaves broadcast one cell to every lane).
+inline void canonical_face_order(int32_t const* key, int f, int order[4]) {
+  int const* q = hex_faces[f];
+  int32_t const k0 = key[q[0]], k1 = key[q[1]], k2 = key[q[2]], k3 = key[q[3]];
+  // Rotate the lowest id to position 0: by 2 if it sits at 2 or 3, then by 1.
+  int32_t const lo01 = k1 < k0 ? k1 : k0, lo23 = k3 < k2 ? k3 : k2;
+  bool const r2 = lo23 < lo01;
+  bool const r1 = r2 ? k3 < k2 : k1 < k0;
+  int const shift = (r2 ? 2 : 0) + (r1 ? 1 : 0);
+  for (int k = 0; k < 4; ++k) order[k] = q[(k + shift) & 3];
+  // Walk towards the lower-id neighbour.
+  if (key[order[3]] < key[order[1]]) std::swap(order[1], order[3]);
+}
+
+/// The corners of face f in the canonical order `order` (uniform corners).
+template <class A>
+CELLRAY_FORCE_INLINE void ordered_patch(CellCorners<A, 8> const& c, int const order[4], PatchCorner<A> q[4]) {
+  for (int k = 0; k < 4; ++k) {
+    int const i = order[k];
+    q[k] = {c.p(i), c.s[i], c.id[i],
+            {vfloat<A>(hex_corner_uvw[i][0]), vfloat<A>(hex_corner_uvw[i][1]), vfloat<A>(hex_corner_uvw[i][2])}};
+  }
+}
+
+/// The face's corners in canonical order (see the file comment): decided
+/// once in scalar code when the corners are uniform (packet), per lane by
+/// selects otherwise. Both give the same corners, bit for bit.
+template <class A> CELLRAY_FORCE_INLINE void canonical_patch(CellCorners<A, 8> const& c, int f, PatchCorner<A> q[4]) {
+  if (c.uniform) {
+    int order[4];
+    canonical_face_order(c.uniform_key, f, order);
+    ordered_patch<A>(c, order, q);
+    return;
+  }
   for (int k = 0; k < 4; ++k) {
     int const i = hex_faces[f][k];
     q[k] = {c.p(i), c.s[i], c.id[i],
@@ -114,29 +169,121 @@ template <class A> struct HullAcc {
   Vec3<A> u_in, u_out;
 };
 
-/// Ray / bilinear patch intersection after Reshetov, "Cool Patches" (Ray
-/// Tracing Gems, 2019), on the whole line; every valid root updates `acc`.
-template <class A> inline void patch_hits(RayBatch<A> const& ray, PatchCorner<A> const q[4], HullAcc<A>& acc) {
+/// Relative tolerance under which a face counts as a parallelogram (and a
+/// hex whose faces all do as a parallelepiped): the length of the defect
+/// (q1 - q0) - (q2 - q3) at most this times the length of (e10, e00), i.e.
+/// within a few float roundings of the corner coordinates (an affine image
+/// of a grid, rounded to float).
+inline constexpr float hex_affine_tolerance = 1.f / (1 << 20);
+
+/// The value and trilinear coordinates at patch coordinates (u, v) of a
+/// face: bilinear in its canonical corners (bit-identical in both cells).
+template <class A>
+CELLRAY_FORCE_INLINE void face_point(PatchCorner<A> const q[4], vfloat<A> const& u, vfloat<A> const& v, vfloat<A>& s,
+                                     Vec3<A>& uvw) {
+  s = lerp<A>(lerp<A>(q[0].s, q[1].s, u), lerp<A>(q[3].s, q[2].s, u), v);
+  // The face is a unit square in (u, v, w): its bilinear map is affine.
+  uvw = q[0].uvw + u * (q[1].uvw - q[0].uvw) + v * (q[3].uvw - q[0].uvw);
+}
+
+/// Records a patch crossing at ray parameter t, patch coordinates (u, v) in
+/// the lanes `ok` into the hull.
+template <class A>
+CELLRAY_FORCE_INLINE void hull_add(PatchCorner<A> const q[4], vmask<A> const& ok, vfloat<A> const& t,
+                                   vfloat<A> const& u, vfloat<A> const& v, HullAcc<A>& acc) {
+  vfloat<A> s;
+  Vec3<A> uvw;
+  face_point<A>(q, u, v, s, uvw);
+  vmask<A> const new_in = ok && t < acc.t_in;
+  vmask<A> const new_out = ok && t > acc.t_out;
+  acc.t_in = simd::select(new_in, t, acc.t_in);
+  acc.s_in = simd::select(new_in, s, acc.s_in);
+  acc.u_in = select<A>(new_in, uvw, acc.u_in);
+  acc.t_out = simd::select(new_out, t, acc.t_out);
+  acc.s_out = simd::select(new_out, s, acc.s_out);
+  acc.u_out = select<A>(new_out, uvw, acc.u_out);
+}
+
+/// The plane of a face whose canonical corners form a parallelogram:
+/// through q0, spanned by e10 = q1 - q0 and e00 = q3 - q0, normal n = e10 x
+/// e00.
+template <class A> struct FacePlane {
+  Vec3<A> e10, e00, n, p00;  ///< p00 = q0 - ray origin
+  vmask<A> para;             ///< the face is a parallelogram (hex_affine_tolerance)
+  /// Ray parameter of the crossing (+-inf or NaN for rays in the plane's direction).
+  vfloat<A> t(Vec3<A> const& d) const { return dot(n, p00) / dot(n, d); }
+  /// Patch coordinates of the crossing at t by the dual basis: u = r . (e00
+  /// x n) / n.n, v = r . (n x e10) / n.n with r = o + t d - q0.
+  void uv(Vec3<A> const& d, vfloat<A> const& t, vfloat<A>& u, vfloat<A>& v) const {
+    Vec3<A> const r = t * d - p00;
+    vfloat<A> const inv = vfloat<A>(1.f) / dot(n, n);
+    u = dot(r, cross(e00, n)) * inv;
+    v = dot(r, cross(n, e10)) * inv;
+  }
+};
+
+/// The face plane of canonical corners q0..q3 (positions) for ray origin o.
+template <class A>
+CELLRAY_FORCE_INLINE FacePlane<A> face_plane(Vec3<A> const& q0, Vec3<A> const& q1, Vec3<A> const& q2,
+                                             Vec3<A> const& q3, Vec3<A> const& o) {
+  FacePlane<A> F;
+  F.e10 = q1 - q0;
+  F.e00 = q3 - q0;
+  Vec3<A> const defect = F.e10 - (q2 - q3);
+  F.para = dot(defect, defect) <= vfloat<A>(hex_affine_tolerance * hex_affine_tolerance) *
+                                      (dot(F.e10, F.e10) + dot(F.e00, F.e00));
+  F.n = cross(F.e10, F.e00);
+  F.p00 = q0 - o;
+  return F;
+}
+
+template <class A> CELLRAY_FORCE_INLINE FacePlane<A> face_plane(PatchCorner<A> const q[4], Vec3<A> const& o) {
+  return face_plane<A>(q[0].p, q[1].p, q[2].p, q[3].p, o);
+}
+
+/// Ray / face intersection on the whole line; every valid crossing updates
+/// `acc`; returns the face's parallelogram mask. A face whose canonical
+/// corners form a parallelogram (within hex_affine_tolerance: every face of
+/// a parallelepiped, e.g. a structured grid) is its plane: one ray/plane
+/// crossing (FacePlane). Any other face is the bilinear patch, after
+/// Reshetov, "Cool Patches" (Ray Tracing Gems, 2019): a quadratic in u, up
+/// to two roots. The choice is a function of the canonical corners only, so
+/// the two cells of a shared face take the same path and get the same bits.
+template <class A>
+CELLRAY_FORCE_INLINE vmask<A> patch_hits(RayBatch<A> const& ray, PatchCorner<A> const q[4], HullAcc<A>& acc) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
   vfloat<A> const zero(0.f);
   vfloat<A> const lo(-hex_patch_tolerance), hi(1.f + hex_patch_tolerance);
   Vec3<A> const o = ray.origin(), d = ray.dir();
-  Vec3<A> const e10 = q[1].p - q[0].p, e11 = q[2].p - q[1].p, e00 = q[3].p - q[0].p;
+  FacePlane<A> const F = face_plane<A>(q, o);
+  if (simd::any(F.para)) {
+    vfloat<A> const t = F.t(d);
+    vfloat<A> u, v;
+    F.uv(d, t, u, v);
+    // Parallel rays give t = +-inf or NaN, never a crossing; a zero-area
+    // face gives NaN (u, v).
+    vmask<A> const ok = F.para && simd::abs(t) < vfloat<A>(inf) && u >= lo && u <= hi && v >= lo && v <= hi;
+    if (simd::any(ok)) hull_add<A>(q, ok, t, u, v, acc);
+    if (simd::all(F.para)) return F.para;
+  }
+  vmask<A> const patch = !F.para;
+  Vec3<A> const e10 = F.e10, e00 = F.e00, e11 = q[2].p - q[1].p, p00 = F.p00;
   Vec3<A> const qn = cross(e10, q[3].p - q[2].p);
-  Vec3<A> const p00 = q[0].p - o, p10 = q[1].p - o;
+  Vec3<A> const p10 = q[1].p - o;
   vfloat<A> const a = dot(cross(p00, d), e00);
   vfloat<A> const cc = dot(qn, d);
   vfloat<A> const b = dot(cross(p10, d), e11) - (a + cc);
   vfloat<A> const disc = b * b - vfloat<A>(4.f) * a * cc;
-  vmask<A> const real = disc >= zero;
+  vmask<A> const real = patch && disc >= zero;
   vfloat<A> const sq = simd::sqrt(simd::select(real, disc, zero));
   vmask<A> const linear = cc == zero;
   vfloat<A> const qq = vfloat<A>(-0.5f) * (b + simd::select(b >= zero, sq, zero - sq));
   vfloat<A> const ua = simd::select(linear, zero - a / b, qq / cc);
   vfloat<A> const ub = a / qq;
   vmask<A> const valid_b = real && !linear;
-  for (int r = 0; r < 2; ++r) {
-    vfloat<A> const u = r == 0 ? ua : ub;
-    vmask<A> const cand = (r == 0 ? real : valid_b) && u >= lo && u <= hi;
+  for (int root = 0; root < 2; ++root) {
+    vfloat<A> const u = root == 0 ? ua : ub;
+    vmask<A> const cand = (root == 0 ? real : valid_b) && u >= lo && u <= hi;
     if (simd::none(cand)) continue;
     Vec3<A> const pa = lerp<A>(p00, p10, u);
     Vec3<A> const pb = lerp<A>(e00, e11, u);
@@ -146,19 +293,9 @@ template <class A> inline void patch_hits(RayBatch<A> const& ray, PatchCorner<A>
     vfloat<A> const t = dot(n, pb) / det;
     vfloat<A> const v = dot(n, d) / det;
     vmask<A> const ok = cand && det > zero && v >= lo && v <= hi;
-    if (simd::none(ok)) continue;
-    vfloat<A> const s = lerp<A>(lerp<A>(q[0].s, q[1].s, u), lerp<A>(q[3].s, q[2].s, u), v);
-    // The face is a unit square in (u, v, w): its bilinear map is affine.
-    Vec3<A> const uvw = q[0].uvw + u * (q[1].uvw - q[0].uvw) + v * (q[3].uvw - q[0].uvw);
-    vmask<A> const new_in = ok && t < acc.t_in;
-    vmask<A> const new_out = ok && t > acc.t_out;
-    acc.t_in = simd::select(new_in, t, acc.t_in);
-    acc.s_in = simd::select(new_in, s, acc.s_in);
-    acc.u_in = select<A>(new_in, uvw, acc.u_in);
-    acc.t_out = simd::select(new_out, t, acc.t_out);
-    acc.s_out = simd::select(new_out, s, acc.s_out);
-    acc.u_out = select<A>(new_out, uvw, acc.u_out);
+    if (simd::any(ok)) hull_add<A>(q, ok, t, u, v, acc);
   }
+  return F.para;
 }
 
 template <class A> inline vfloat<A> trilerp(vfloat<A> const* v, Vec3<A> const& u) {
@@ -239,26 +376,41 @@ template <class A> inline Vec3<A> hex_world_gradient(CellCorners<A, 8> const& c,
 
 }  // namespace detail
 
-/// Ray clip against one hex per lane by its six bilinear face patches (see
-/// the file comment): [t_in, t_out] is the hull of all patch crossings on the
-/// full line, with the values and trilinear coordinates there. Rays parallel
-/// to a planar face meet it at most in its edges and are handled by the
-/// other faces. Flat (zero-volume) hexes yield t_in == t_out: no hit. NaN
-/// positions or a miss yield hit == false; hit lanes never carry NaN t.
-template <class A> inline HexClip<A> clip_hex(RayBatch<A> const& ray, CellCorners<A, 8> const& c) {
+/// Ray clip against one hex per lane by its six faces (see the file
+/// comment) for the lanes in `lanes` whose interval meets [t_lo, t_hi] (per
+/// lane): `hit` = the line crosses the cell && lanes && t_out >= t_lo &&
+/// t_in <= t_hi; the rest is meaningful in hit lanes only. [t_in, t_out] is
+/// the hull of all face crossings on the full line (bilinear patches,
+/// parallelogram faces as planes), with the values and trilinear
+/// coordinates there. Rays parallel to a planar face meet it at most in its edges
+/// and are handled by the other faces. Flat (zero-volume) hexes yield no
+/// hit. NaN positions or a miss yield hit == false; hit lanes never carry
+/// NaN t.
+template <class A>
+inline HexClip<A> clip_hex_window(RayBatch<A> const& ray, CellCorners<A, 8> const& c, vmask<A> const& lanes,
+                                  vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
   constexpr float inf = std::numeric_limits<float>::infinity();
   vfloat<A> const zero(0.f);
   detail::HullAcc<A> acc{vfloat<A>(inf), vfloat<A>(-inf), zero, zero, {zero, zero, zero}, {zero, zero, zero}};
+  vmask<A> affine(true);
   for (int f = 0; f < 6; ++f) {
     detail::PatchCorner<A> q[4];
     detail::canonical_patch(c, f, q);
-    detail::patch_hits(ray, q, acc);
+    vmask<A> const para = detail::patch_hits(ray, q, acc);  // not inside &&: for scalar that short-circuits
+    affine = affine && para;
   }
   HexClip<A> r;
   r.t_in = acc.t_in, r.t_out = acc.t_out, r.s_in = acc.s_in, r.s_out = acc.s_out;
   r.u_in = acc.u_in, r.u_out = acc.u_out;
-  r.hit = acc.t_in < acc.t_out;
+  r.hit = lanes && acc.t_in < acc.t_out && acc.t_out >= t_lo && acc.t_in <= t_hi;
+  r.affine = affine;
   return r;
+}
+
+/// clip_hex_window with every lane and the whole line.
+template <class A> inline HexClip<A> clip_hex(RayBatch<A> const& ray, CellCorners<A, 8> const& c) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  return clip_hex_window(ray, c, vmask<A>(true), vfloat<A>(-inf), vfloat<A>(inf));
 }
 
 /// Point containment and trilinear interpolation by Newton inversion of the
@@ -322,15 +474,15 @@ template <class A> inline Cubic<A> cubic_through(vfloat<A> f0, vfloat<A> f1, vfl
   return {f0, vfloat<A>(3.f) * d1 - vfloat<A>(1.5f) * d2 + d3, vfloat<A>(4.5f) * (d2 - d3), vfloat<A>(4.5f) * d3};
 }
 
-/// The first crossing (f >= 0 predicate change) of the cubic in [0,1], with
-/// the values at 0 and 1 given exactly (canonical face values). Splits
-/// [0,1] at the cubic's extrema (Marmitt et al. 2004) into monotone pieces,
+/// The first crossing (f >= 0 predicate change) of the cubic in [0,1], in
+/// `lanes`, with the values at 0 and 1 given exactly (canonical face
+/// values). Splits [0,1] at the cubic's extrema (Marmitt et al. 2004) into monotone pieces,
 /// takes the first piece whose ends differ, and polishes there with a
 /// bisection-safeguarded Newton iteration. `lo_out`/`hi_out` return that
 /// piece (for world-space refinement).
 template <class A>
-inline vfloat<A> first_cubic_root(Cubic<A> const& p, vfloat<A> const& f0, vfloat<A> const& f3, vmask<A>& found,
-                                  vfloat<A>& lo_out, vfloat<A>& hi_out) {
+inline vfloat<A> first_cubic_root(Cubic<A> const& p, vfloat<A> const& f0, vfloat<A> const& f3, vmask<A> const& lanes,
+                                  vmask<A>& found, vfloat<A>& lo_out, vfloat<A>& hi_out) {
   vfloat<A> const zero(0.f), one(1.f);
   // Extrema: roots of 3 c3 x^2 + 2 c2 x + c1, stable form.
   vfloat<A> const A2 = vfloat<A>(3.f) * p.c3, B2 = vfloat<A>(2.f) * p.c2;
@@ -350,7 +502,7 @@ inline vfloat<A> first_cubic_root(Cubic<A> const& p, vfloat<A> const& f0, vfloat
   vfloat<A> const g1 = val(e1), g2 = val(e2);
   vmask<A> const a0 = f0 >= zero, a1 = g1 >= zero, a2 = g2 >= zero, a3 = f3 >= zero;
   vmask<A> const p0 = mask_xor<A>(a0, a1), p1 = mask_xor<A>(a1, a2), p2 = mask_xor<A>(a2, a3);
-  found = p0 || p1 || p2;
+  found = lanes && (p0 || p1 || p2);
   vfloat<A> lo = simd::select(p0, zero, simd::select(p1, e1, e2));
   vfloat<A> hi = simd::select(p0, e1, simd::select(p1, e2, one));
   vfloat<A> flo = simd::select(p0, f0, simd::select(p1, g1, g2));
@@ -359,7 +511,12 @@ inline vfloat<A> first_cubic_root(Cubic<A> const& p, vfloat<A> const& f0, vfloat
   // Start at the secant point, then Newton kept inside the bracket.
   vfloat<A> den = fhi - flo;
   vfloat<A> x = lo + clamp01<A>(simd::select(den == zero, vfloat<A>(0.5f), -flo / den)) * (hi - lo);
-  for (int it = 0; it < 8; ++it) {
+  // A lane stops once its Newton step is within about one float spacing of
+  // lam in [0,1] (quadratic convergence: the next step would be below
+  // rounding); frozen per lane, so a lane's root never depends on the
+  // other lanes (packet and SPMD agree bit for bit).
+  vmask<A> active = found;
+  for (int it = 0; it < 8 && simd::any(active); ++it) {
     vfloat<A> const fx = p(x);
     vmask<A> const same_lo = !mask_xor<A>(fx >= zero, flo >= zero);
     lo = simd::select(same_lo, x, lo);
@@ -371,7 +528,10 @@ inline vfloat<A> first_cubic_root(Cubic<A> const& p, vfloat<A> const& f0, vfloat
     // there, f == 0 counts as above) is a fixed point of Newton at that end;
     // an open test bisected it away, 2^-8 of the cell into the interval.
     vmask<A> const inside = nx >= lo && nx <= hi;  // false for NaN
-    x = simd::select(inside, nx, vfloat<A>(0.5f) * (lo + hi));
+    vfloat<A> const next = simd::select(inside, nx, vfloat<A>(0.5f) * (lo + hi));
+    vmask<A> const settled = inside && simd::abs(next - x) <= vfloat<A>(hex_cubic_step_tol);
+    x = simd::select(active, next, x);
+    active = active && !settled;
   }
   return x;
 }
@@ -384,54 +544,74 @@ inline vfloat<A> first_cubic_root(Cubic<A> const& p, vfloat<A> const& f0, vfloat
 /// canonical end values plus the cubic's extrema, so crossings are neither
 /// lost nor doubled between neighbours, and a pair of crossings inside one
 /// cell (double root, grazing ray) is found when the cubic shows it.
-/// `refine_steps` world-space Newton steps (0 = the cubic's root only; each
-/// step is one warm-started trilinear inversion of 3 iterations) stay inside
-/// the isolated bracket. Cells with a NaN corner value never hit; hits never
-/// carry NaN.
+/// Parallelepipeds (HexClip::affine) take the cubic's root as is: it is the
+/// field on the ray. Other hexes get `refine_steps` world-space Newton steps
+/// (0 = the cubic's root only; each step is one warm-started trilinear
+/// inversion of 3 iterations), kept inside the isolated bracket. Cells with
+/// a NaN corner value never hit; hits never carry NaN. `param`, if given,
+/// receives the trilinear coordinates of the hit in hit lanes (for the
+/// shading gradient; other lanes unchanged): exact for parallelepipeds, the
+/// last refinement's inversion (one Newton step behind t) otherwise.
 template <class A>
 inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip, CellCorners<A, 8> const& c,
-                                  float const* isovalues, int count, int refine_steps = 2) {
+                                  float const* isovalues, int count, int refine_steps = 2, Vec3<A>* param = nullptr) {
   constexpr float inf = std::numeric_limits<float>::infinity();
+  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
   vmask<A> const valid = clip.hit && !has_nan_value(c);
-  if (simd::none(valid)) return {vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
+  if (simd::none(valid)) return h;
   Vec3<A> const du = clip.u_out - clip.u_in;
   vfloat<A> const dt = clip.t_out - clip.t_in;
   Vec3<A> const o = ray.origin(), d = ray.dir();
-  // The field on the ray itself at 1/3 and 2/3: inversions warm-started on
-  // the parametric segment (exact points of the non-polynomial ray field).
+  // Parallelepipeds: the parametric segment between the entry and exit
+  // coordinates *is* the ray, so the cubic through its values is the exact
+  // field on the ray and needs neither inversions nor refinement. Other
+  // hexes: the field on the ray itself at 1/3 and 2/3 by inversions
+  // warm-started on the parametric segment (exact points of the
+  // non-polynomial ray field).
+  vmask<A> const general = valid && !clip.affine;
+  bool const any_general = simd::any(general);
   auto on_ray = [&](float lam) {
-    vmask<A> conv;
-    Vec3<A> const u = detail::invert_hex(c, o + (clip.t_in + vfloat<A>(lam) * dt) * d,
-                                         clip.u_in + vfloat<A>(lam) * du, valid, 4, conv);
+    Vec3<A> u = clip.u_in + vfloat<A>(lam) * du;
+    if (any_general) {
+      vmask<A> conv;
+      u = detail::invert_hex(c, o + (clip.t_in + vfloat<A>(lam) * dt) * d, u, general, 4, conv);
+    }
     return detail::trilerp<A>(c.s, u);
   };
   vfloat<A> const v1 = on_ray(1.f / 3.f), v2 = on_ray(2.f / 3.f);
-  return detail::nearest_crossing<A>(isovalues, count, [&](vfloat<A> const& iso, vmask<A>& found) {
+  for (int k = 0; k < count; ++k) {
+    vfloat<A> const iso(isovalues[k]);
     vfloat<A> const f0 = clip.s_in - iso, f3 = clip.s_out - iso;
     detail::Cubic<A> const cubic = detail::cubic_through<A>(f0, v1 - iso, v2 - iso, f3);
     vfloat<A> lo, hi;
-    vfloat<A> const lam = detail::first_cubic_root(cubic, f0, f3, found, lo, hi);
-    found = found && valid;
+    vmask<A> found;
+    vfloat<A> const lam = detail::first_cubic_root(cubic, f0, f3, valid, found, lo, hi);
+    if (simd::none(found)) continue;
     vfloat<A> t = clip.t_in + lam * dt;
-    if (refine_steps <= 0 || simd::none(found)) return t;
-    vfloat<A> const t_lo = clip.t_in + lo * dt, t_hi = clip.t_in + hi * dt;
     Vec3<A> u = clip.u_in + lam * du;
-    for (int s = 0; s < refine_steps; ++s) {
-      vmask<A> conv;
-      u = detail::invert_hex(c, o + t * d, u, found, 3, conv);
-      vmask<A> gok;
-      Vec3<A> const g = detail::hex_world_gradient(c, u, &gok);
-      vfloat<A> const f = detail::trilerp<A>(c.s, u) - iso;
-      vfloat<A> const nt = t - f / dot(g, d);
-      // The root is inside the bracket by construction: a step past an end
-      // (the inverted field and the canonical face value differ by
-      // rounding, so a root at the face can land a hair outside) stops at
-      // that end instead of being dropped.
-      vmask<A> const take = found && gok && simd::abs(nt) < vfloat<A>(inf);  // false for NaN
-      t = simd::select(take, simd::min(simd::max(nt, t_lo), t_hi), t);
+    vmask<A> const refine = found && general;
+    if (refine_steps > 0 && simd::any(refine)) {
+      vfloat<A> const t_lo = clip.t_in + lo * dt, t_hi = clip.t_in + hi * dt;
+      for (int s = 0; s < refine_steps; ++s) {
+        vmask<A> conv;
+        u = detail::invert_hex(c, o + t * d, u, refine, 3, conv);
+        vmask<A> gok;
+        Vec3<A> const g = detail::hex_world_gradient(c, u, &gok);
+        vfloat<A> const f = detail::trilerp<A>(c.s, u) - iso;
+        vfloat<A> const nt = t - f / dot(g, d);
+        // The root is inside the bracket by construction: a step past an end
+        // (the inverted field and the canonical face value differ by
+        // rounding, so a root at the face can land a hair outside) stops at
+        // that end instead of being dropped.
+        vmask<A> const take = refine && gok && simd::abs(nt) < vfloat<A>(inf);  // false for NaN
+        t = simd::select(take, simd::min(simd::max(nt, t_lo), t_hi), t);
+      }
     }
-    return t;
-  });
+    // Nearest wins, ties keep the lower index (detail::keep_nearest's rule).
+    if (param) *param = select<A>(found && t < h.t, u, *param);
+    detail::keep_nearest<A>(h, found, t, k);
+  }
+  return h;
 }
 
 /// Neubauer's method with `steps` rounds (paper Fig. 5, N = 2 there) on the

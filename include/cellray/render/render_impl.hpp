@@ -3,6 +3,7 @@
 // shading with shadows, ambient occlusion and transparency, and DVR.
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -74,13 +75,15 @@ inline RayPacket<A> camera_packet(Camera const& cam, Tile const& tile, int bx, i
 template <class A> struct SceneHit {
   vfloat<A> t;
   vint<A> iso, item, part;  ///< part: index into PreparedScene::parts
+  Vec3<A> grad{};           ///< hex hits, when asked for: analytic gradient (FirstHitQuery::grad)
 };
 
 template <class A, int N>
 inline void hit_part(PreparedPart const& part, CellMesh<N> const& mesh, RayPacket<A> const& r, vmask<A> active,
                      IsoSet const& isos, CellIsoOptions const& roots, Traversal how, int threshold, int part_index,
-                     SceneHit<A>& best) {
+                     SceneHit<A>& best, bool gradient) {
   FirstHitQuery<A, N> q{part.tree, mesh, r, isos, roots, {best.t, vint<A>(-1), vint<A>(-1)}};
+  q.want_gradient = gradient;
   switch (how) {
     case Traversal::packet: traverse_packet<A>(part.tree, r, active, q); break;
     case Traversal::hybrid: traverse_packet<A>(part.tree, r, active, q, 0, threshold); break;
@@ -92,16 +95,18 @@ inline void hit_part(PreparedPart const& part, CellMesh<N> const& mesh, RayPacke
   best.iso = simd::select(bi, q.hit.iso, best.iso);
   best.item = simd::select(bi, q.hit.item, best.item);
   best.part = simd::select(bi, vint<A>(part_index), best.part);
+  if (N == 8 && gradient) best.grad = select<A>(better, q.grad, best.grad);
 }
 
+/// `hex_gradient`: hex hits also bring their analytic gradient (SceneHit::grad).
 template <class A>
 inline SceneHit<A> nearest_hit(PreparedScene const& s, RayPacket<A> const& r, vmask<A> active, IsoSet const& isos,
-                               CellIsoOptions const& roots, Traversal how, int threshold) {
+                               CellIsoOptions const& roots, Traversal how, int threshold, bool hex_gradient = false) {
   SceneHit<A> best{r.tmax, vint<A>(-1), vint<A>(-1), vint<A>(-1)};
   for (size_t p = 0; p < s.parts.size(); ++p) {
     PreparedPart const& part = s.parts[p];
-    if (part.tets) hit_part<A>(part, *part.tets, r, active, isos, roots, how, threshold, int(p), best);
-    else hit_part<A>(part, *part.hexes, r, active, isos, roots, how, threshold, int(p), best);
+    if (part.tets) hit_part<A>(part, *part.tets, r, active, isos, roots, how, threshold, int(p), best, false);
+    else hit_part<A>(part, *part.hexes, r, active, isos, roots, how, threshold, int(p), best, hex_gradient);
   }
   return best;
 }
@@ -111,6 +116,13 @@ inline glm::vec3 normal_at(PreparedPart const& part, uint64_t slot, glm::vec3 p,
   uint64_t const cell = part.tree.item(slot);
   Ray const at_hit{p, 0.f, dir, 0.f};  // t = 0 is the hit point itself
   return part.tets ? hit_normal(*part.tets, cell, at_hit, 0.f, m) : hit_normal(*part.hexes, cell, at_hit, 0.f, m);
+}
+
+/// Unit shading normal from a field gradient (two-sided), as hit_normal.
+__attribute__((noinline)) inline glm::vec3 normal_from_gradient(float gx, float gy, float gz, glm::vec3 dir) {
+  Vec3<scalar> const g{gx, gy, gz}, d{dir.x, dir.y, dir.z};
+  Vec3<scalar> const n = face_forward<scalar>(shading_normal<scalar>(g, d), d);
+  return {n.x, n.y, n.z};
 }
 
 /// Deterministic per-pixel hash in [0, 1): AO directions must not flicker
@@ -137,6 +149,11 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
   float const ao_radius = p.ao_radius > 0.f ? p.ao_radius : 0.05f * s.diagonal;
   bool const headlight = !(glm::length(p.light_dir) > 0.f);
   glm::vec3 const light = headlight ? glm::vec3(0.f) : glm::normalize(p.light_dir);
+  // Hex hits shade from the gradient the iso query computed per cell
+  // (analytic normals); tets and central differences per lane (normal_at).
+  bool hex_gradient = false;
+  for (PreparedPart const& part : s.parts) hex_gradient = hex_gradient || part.hexes;
+  hex_gradient = hex_gradient && p.normals == GradientMethod::analytic;
 
   for (int by = tile.y0; by < tile.y0 + tile.h; by += block_h<A>)
     for (int bx = tile.x0; bx < tile.x0 + tile.w; bx += block_w<A>) {
@@ -151,8 +168,12 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
       // Front-to-back layers: continue behind semi-transparent surfaces.
       for (int layer = 0; layer < 16 && live; ++layer) {
         r.tmin = simd::load<A>(tmin);
-        SceneHit<A> const h = nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots, o.traversal, threshold);
+        SceneHit<A> const h = nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots, o.traversal, threshold,
+                                             hex_gradient);
         auto const t = simd::to_array<A>(h.t);
+        std::array<float, W> gx{}, gy{}, gz{};
+        if (hex_gradient)
+          gx = simd::to_array<A>(h.grad.x), gy = simd::to_array<A>(h.grad.y), gz = simd::to_array<A>(h.grad.z);
         auto const iso = simd::to_array<A>(h.iso), item = simd::to_array<A>(h.item), part = simd::to_array<A>(h.part);
         auto const dx = simd::to_array<A>(r.dx), dy = simd::to_array<A>(r.dy), dz = simd::to_array<A>(r.dz);
         // Hit points, normals and the light per lane; shadow and AO rays
@@ -165,7 +186,9 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           hit_bits |= 1u << l;
           glm::vec3 const d(dx[l], dy[l], dz[l]);
           pos[l] = cam.eye + t[l] * d;
-          nrm[l] = normal_at(s.parts[size_t(part[l])], uint64_t(item[l]), pos[l], d, p.normals);
+          nrm[l] = hex_gradient && s.parts[size_t(part[l])].hexes
+                       ? normal_from_gradient(gx[l], gy[l], gz[l], d)
+                       : normal_at(s.parts[size_t(part[l])], uint64_t(item[l]), pos[l], d, p.normals);
           ldir[l] = headlight ? -glm::normalize(d) : light;
           IsoSurface const& surf = p.surfaces[size_t(iso[l])];
           base[l] = surf.color;

@@ -24,8 +24,9 @@ template <class A> struct CellOps<A, 4> {
                           vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
     return clip_tet_window(r, c, lanes, t_lo, t_hi);
   }
+  /// `param` is for hexes (hit coordinates); tets leave it alone.
   static CellIsoHit<A> iso(RayBatch<A> const& r, Clip const& k, CellCorners<A, 4> const& c, float const* isos,
-                           int count, CellIsoOptions const& o) {
+                           int count, CellIsoOptions const& o, Vec3<A>* /*param*/ = nullptr) {
     return o.method == CellIsoMethod::exact ? iso_root_tet(k, c, isos, count)
                                             : iso_root_tet_neubauer(r, k, c, isos, count, o.neubauer_steps);
   }
@@ -40,14 +41,23 @@ template <class A> struct CellOps<A, 8> {
   static Clip clip(RayBatch<A> const& r, CellCorners<A, 8> const& c) { return clip_hex(r, c); }
   static Clip clip_window(RayBatch<A> const& r, CellCorners<A, 8> const& c, vmask<A> const& lanes,
                           vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
-    Clip k = clip_hex(r, c);
-    k.hit = k.hit && lanes && k.t_out >= t_lo && k.t_in <= t_hi;
-    return k;
+    return clip_hex_window(r, c, lanes, t_lo, t_hi);
   }
+  /// `param`, if given, receives the trilinear coordinates of the hit in
+  /// hit lanes (iso_root_hex's; for Neubauer one inversion at the root).
   static CellIsoHit<A> iso(RayBatch<A> const& r, Clip const& k, CellCorners<A, 8> const& c, float const* isos,
-                           int count, CellIsoOptions const& o) {
-    return o.method == CellIsoMethod::exact ? iso_root_hex(r, k, c, isos, count, o.refine_steps)
-                                            : iso_root_hex_neubauer(r, k, c, isos, count, o.neubauer_steps);
+                           int count, CellIsoOptions const& o, Vec3<A>* param = nullptr) {
+    if (o.method == CellIsoMethod::exact) return iso_root_hex(r, k, c, isos, count, o.refine_steps, param);
+    CellIsoHit<A> const h = iso_root_hex_neubauer(r, k, c, isos, count, o.neubauer_steps);
+    if (param && simd::any(h.hit)) {
+      vfloat<A> const dt = k.t_out - k.t_in;
+      vfloat<A> const lam = simd::select(h.hit, (h.t - k.t_in) / dt, vfloat<A>(0.f));
+      vmask<A> conv;
+      Vec3<A> const u = detail::invert_hex(c, r.origin() + simd::select(h.hit, h.t, k.t_in) * r.dir(),
+                                           k.u_in + lam * (k.u_out - k.u_in), h.hit, hex_newton_cap, conv);
+      *param = select<A>(h.hit, u, *param);
+    }
+    return h;
   }
   static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 8> const& c) { return locate_hex(p, c); }
   static Vec3<A> gradient(CellCorners<A, 8> const& c, Vec3<A> const& p, GradientMethod m, float h) {
@@ -77,19 +87,23 @@ CELLRAY_FORCE_INLINE vmask<A> cell_box_hit(RayPacket<A> const& r, CellCorners<A,
 /// continuing behind a transparent surface, or the current nearest hit), the
 /// isovalues are tried one by one so a crossing before t_lo cannot hide a
 /// later one of another isovalue.
+/// `param` (hexes): the hit's trilinear coordinates in hit lanes, see
+/// CellOps<A, 8>::iso.
 template <class A, int N>
 inline CellIsoHit<A> iso_in_window(RayBatch<A> const& r, CellCorners<A, N> const& c, vmask<A> const& lanes,
                                    vfloat<A> const& t_lo, vfloat<A> const& t_hi, float const* isos, int count,
-                                   CellIsoOptions const& o) {
+                                   CellIsoOptions const& o, Vec3<A>* param = nullptr) {
   using Ops = CellOps<A, N>;
   constexpr float inf = std::numeric_limits<float>::infinity();
   typename Ops::Clip const k = Ops::clip_window(r, c, lanes, t_lo, t_hi);
   CellIsoHit<A> best{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
   if (simd::none(k.hit)) return best;
-  if (simd::all(!k.hit || (k.t_in >= t_lo && k.t_out <= t_hi))) return Ops::iso(r, k, c, isos, count, o);
+  if (simd::all(!k.hit || (k.t_in >= t_lo && k.t_out <= t_hi))) return Ops::iso(r, k, c, isos, count, o, param);
   for (int i = 0; i < count; ++i) {
-    CellIsoHit<A> const h = Ops::iso(r, k, c, isos + i, 1, o);
+    Vec3<A> u = param ? *param : Vec3<A>{};
+    CellIsoHit<A> const h = Ops::iso(r, k, c, isos + i, 1, o, param ? &u : nullptr);
     vmask<A> const take = h.hit && h.t >= t_lo && h.t <= t_hi && h.t < best.t;
+    if (param) *param = select<A>(take, u, *param);
     best.t = simd::select(take, h.t, best.t);
     best.iso_index = simd::select(simd::to_int_mask(take), vint<A>(i), best.iso_index);
     best.hit = best.hit || take;

@@ -45,6 +45,12 @@ template <class A, int N> struct FirstHitQuery {
   IsoSet const& isos;
   CellIsoOptions const& method;
   HitPacket<A> hit;
+  /// Hexes: also keep, in `grad`, the analytic field gradient (world space)
+  /// at each lane's hit, computed once per cell for all its hit lanes (the
+  /// shading normal's source, instead of locating each hit point again).
+  /// Tets ignore it. Lanes without a hit: unspecified.
+  bool want_gradient = false;
+  Vec3<A> grad{};
 
   bool node_relevant(float vmin, float vmax) const { return isos.overlaps(vmin, vmax); }
   vmask<A> relevant(vfloat<A> const& vmin, vfloat<A> const& vmax) const {
@@ -68,6 +74,12 @@ template <class A, int N> struct FirstHitQuery {
       CellCorners<A, N> c;
       if (!broadcast_corners_if_iso<A, N>(mesh, tree.item(i), isos, c)) continue;
       if (simd::none(m && cell_box_hit<A, N>(r, c, r.tmin, hit.t))) continue;
+      if constexpr (N == 8) {
+        if (want_gradient) {
+          hex_cell_with_gradient(c, m, vint<A>(int32_t(i)));
+          continue;
+        }
+      }
       CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method);
       if (simd::any(h.hit)) update(h.hit, h.t, h.iso_index, vint<A>(int32_t(i)));
     }
@@ -91,11 +103,25 @@ template <class A, int N> struct FirstHitQuery {
     if (!keep) return;
     vmask<A> const live = simd::mask_from_bits<A>(keep);
     CellCorners<A, N> const c = gather_corners<A, N>(mesh, cells, live);
+    if constexpr (N == 8) {
+      if (want_gradient) {
+        hex_cell_with_gradient(c, live, slots);
+        return;
+      }
+    }
     CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, live, r.tmin, hit.t, isos.values, isos.count, method);
     update(h.hit, h.t, h.iso_index, slots);
   }
 
-
+  /// Iso roots in one hex per lane (item-list slots `slots`) for lanes `m`,
+  /// keeping the gradient at each hit.
+  void hex_cell_with_gradient(CellCorners<A, N> const& c, vmask<A> const& m, vint<A> const& slots) {
+    Vec3<A> u{};
+    CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method, &u);
+    if (simd::none(h.hit)) return;
+    update(h.hit, h.t, h.iso_index, slots);
+    if constexpr (N == 8) grad = select<A>(h.hit, gradient_hex(c, u), grad);
+  }
 };
 
 }  // namespace CELLRAY_ISA_NS
