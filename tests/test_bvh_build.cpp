@@ -19,13 +19,6 @@ using namespace cellray::test;
 
 namespace {
 
-BuildOptions with(BvhBuilder b, uint32_t leaf = 7) {
-  BuildOptions o;
-  o.builder = b;
-  o.max_leaf_size = leaf;
-  return o;
-}
-
 /// An owning mesh made by hand.
 template <int N> struct HandMesh {
   std::vector<float> xyz, val;

@@ -14,6 +14,14 @@
 
 namespace cellray::test {
 
+/// Build options for `b` with leaves of at most `leaf` cells.
+inline BuildOptions with(BvhBuilder b, uint32_t leaf = 7) {
+  BuildOptions o;
+  o.builder = b;
+  o.max_leaf_size = leaf;
+  return o;
+}
+
 inline constexpr BvhBuilder all_builders[] = {BvhBuilder::spatial_median, BvhBuilder::binned_sah, BvhBuilder::morton};
 
 /// Brute-force oracle: box and value range of every global item, straight

@@ -22,12 +22,6 @@ UnstructuredGrid read(std::string const& rel, bool skip_other_cells = false) {
   return read_mesh(std::string(CELLRAY_SHARED_DATA) + "/" + rel, o);
 }
 
-BuildOptions with(BvhBuilder b) {
-  BuildOptions o;
-  o.builder = b;
-  return o;
-}
-
 }  // namespace
 
 TEST_CASE("real tet mesh: post.vtk (8,750 tets, CFD pressure)", "[bvh][data]") {

@@ -15,13 +15,6 @@ using namespace cellray::test;
 
 namespace {
 
-BuildOptions with(BvhBuilder b, uint32_t leaf = 7) {
-  BuildOptions o;
-  o.builder = b;
-  o.max_leaf_size = leaf;
-  return o;
-}
-
 /// Brute force: every leaf appears once in the plan, with the sorted set of
 /// its cells' corner ids, the last one marked; child() names the left child
 /// of an inner node and the node itself for a leaf.
