@@ -29,6 +29,18 @@ namespace impl {
 template <class A> inline constexpr int block_w = width<A> >= 8 ? 4 : width<A> == 4 ? 2 : 1;
 template <class A> inline constexpr int block_h = width<A> / block_w<A>;
 
+/// Lane l's pixel offset (l % block_w, l / block_w) in its block, as floats.
+template <class A> struct BlockOffsets {
+  alignas(64) float dx[width<A>];
+  alignas(64) float dy[width<A>];
+};
+template <class A>
+inline constexpr BlockOffsets<A> block_offsets = [] {
+  BlockOffsets<A> b{};
+  for (int l = 0; l < width<A>; ++l) b.dx[l] = float(l % block_w<A>), b.dy[l] = float(l / block_w<A>);
+  return b;
+}();
+
 /// Primary rays of the pixel block at (bx, by), clipped to the tile: the
 /// directions of Camera::direction (same expressions), normalized, all
 /// lanes at once.
@@ -36,7 +48,6 @@ template <class A>
 inline RayPacket<A> camera_packet(Camera const& cam, Tile const& tile, int bx, int by, int (&px)[width<A>],
                                   int (&py)[width<A>], uint32_t& valid) {
   constexpr int W = width<A>;
-  alignas(64) float fx[W], fy[W];
   valid = 0;
   for (int l = 0; l < W; ++l) {
     int const x = bx + l % block_w<A>, y = by + l / block_w<A>;
@@ -44,13 +55,18 @@ inline RayPacket<A> camera_packet(Camera const& cam, Tile const& tile, int bx, i
     px[l] = in ? x : bx;
     py[l] = in ? y : by;
     if (in) valid |= 1u << l;
-    fx[l] = float(px[l]), fy[l] = float(py[l]);
   }
+  // Pixel coordinates as floats from constant lane offsets (exact: small
+  // integers), not from per-lane conversions stored and reloaded as a vector.
+  vmask<A> const in = simd::mask_from_bits<A>(valid);
+  vfloat<A> const fbx(static_cast<float>(bx)), fby(static_cast<float>(by));
+  vfloat<A> const fx = simd::select(in, fbx + simd::load<A>(block_offsets<A>.dx), fbx);
+  vfloat<A> const fy = simd::select(in, fby + simd::load<A>(block_offsets<A>.dy), fby);
   float const aspect = float(cam.width) / float(cam.height);
   vfloat<A> const one(1.f), two(2.f), half(0.5f);
-  vfloat<A> const u = ((simd::load<A>(fx) + half) / vfloat<A>(float(cam.width)) * two - one) *
-                      vfloat<A>(cam.tan_half_fov) * vfloat<A>(aspect);
-  vfloat<A> const v = (one - (simd::load<A>(fy) + half) / vfloat<A>(float(cam.height)) * two) * vfloat<A>(cam.tan_half_fov);
+  vfloat<A> const u = ((fx + half) / vfloat<A>(float(cam.width)) * two - one) * vfloat<A>(cam.tan_half_fov) *
+                      vfloat<A>(aspect);
+  vfloat<A> const v = (one - (fy + half) / vfloat<A>(float(cam.height)) * two) * vfloat<A>(cam.tan_half_fov);
   vfloat<A> dx = vfloat<A>(cam.forward.x) + u * vfloat<A>(cam.right.x) + v * vfloat<A>(cam.up.x);
   vfloat<A> dy = vfloat<A>(cam.forward.y) + u * vfloat<A>(cam.right.y) + v * vfloat<A>(cam.up.y);
   vfloat<A> dz = vfloat<A>(cam.forward.z) + u * vfloat<A>(cam.right.z) + v * vfloat<A>(cam.up.z);
