@@ -65,13 +65,19 @@ void bin_slots(ItemBox const* box, uint64_t b, uint64_t e, BinMap const& map, Bi
   auto add = [&](ItemBox const& item, Binning& acc) {
     float const* v = reinterpret_cast<float const*>(&item);
     F4 const l = F4::load(v), h = F4::load(v + 4);
-    alignas(16) int32_t j[4];
-    min(max((l + h - lo) * scale, zero), last).to_int(j);
-    for (int k = ka; k < kb; ++k) {
-      float* acc_box = acc.box[k][j[k]].v;
+    F4 const t = min(max((l + h - lo) * scale, zero), last);
+    auto grow_bin = [&](int k, int32_t j) {
+      float* acc_box = acc.box[k][j].v;
       min(l, F4::load(acc_box)).store(acc_box);
       max(h, F4::load(acc_box + 4)).store(acc_box + 4);
-      ++acc.count[k][j[k]];
+      ++acc.count[k][j];
+    };
+    if constexpr (kb == ka + 1) {
+      grow_bin(ka, t.template lane_int<ka>());  // one axis: its lane, no store and reload
+    } else {
+      alignas(16) int32_t j[4];
+      t.to_int(j);
+      for (int k = ka; k < kb; ++k) grow_bin(k, j[k]);
     }
   };
   uint64_t i = b;
