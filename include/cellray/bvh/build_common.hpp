@@ -56,7 +56,9 @@ struct BuildOptions {
   /// at or below it the SAH termination criterion decides (morton: always a leaf).
   uint32_t max_leaf_size = 7;
   SahCosts sah{};
-  /// Bins per axis of the SAH builder, 2..64.
+  /// Bins per axis of the SAH builder, 2..64: ranges binned from a sample
+  /// (over 256 items) use twice as many (at most 64), ranges of n <= 256
+  /// items min(sah_bins, max(4, n / 4)).
   uint32_t sah_bins = 16;
   /// Store 64-bit item ids even when 32 bits would do (tests of the wide path).
   bool wide_items = false;
