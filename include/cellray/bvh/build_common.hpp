@@ -90,6 +90,13 @@ inline constexpr float inf_f = std::numeric_limits<float>::infinity();
 inline constexpr uint64_t local_build_items = 4096;
 /// Ranges of at least this many items are scanned / partitioned in parallel.
 inline constexpr uint64_t parallel_scan_items = uint64_t(1) << 15;
+/// Ranges of at least this many items are partitioned in fixed blocks (in
+/// parallel), smaller ones sequentially in one pass. The block partition
+/// moves about 1.45x the bytes (every block, then the strays between
+/// blocks), so it pays only where too few subtrees run side by side: the
+/// top one or two levels of a 1M-item build (below them, 4+ subtrees keep
+/// the cores busy). Depends on the range size only (determinism).
+inline constexpr uint64_t parallel_partition_items = uint64_t(1) << 18;
 /// Past this depth the SAH and median builders split at the object median,
 /// which bounds the depth by guard + log2(items) < MinMaxBvh::max_depth.
 inline constexpr uint32_t depth_guard = 64;
@@ -362,7 +369,7 @@ Split partition_sequential(Slots<Index> const& s, uint64_t b, uint64_t e, Pred c
 template <class Index, class Pred>
 Split partition_slots(Slots<Index> const& s, uint64_t b, uint64_t e, Pred const& goes_left) {
   uint64_t const n = e - b;
-  if (n < parallel_scan_items) return partition_sequential(s, b, e, goes_left);
+  if (n < parallel_partition_items) return partition_sequential(s, b, e, goes_left);
   uint64_t const blocks = (n + scan_block - 1) / scan_block;
   std::vector<Split> part(blocks);
   tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& r) {
