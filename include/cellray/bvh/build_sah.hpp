@@ -17,9 +17,10 @@ inline constexpr uint64_t all_axes_items = 4096;
 inline constexpr uint64_t two_binnings_items = 256;
 /// Ranges over twice this many items bin a sample of at least this many
 /// (every (n / sample_items)-th slot), with twice the bins. Against binning
-/// every item of ranges up to 2048 (round 4): 11% fewer instructions for
-/// the whole build, SAH cost 1M tets -0.2%, 1M hexes +0.7%, component8
-/// (608k tets) +0.3%, boxturb +0.1% (bench_bvh BM_tree).
+/// every item of ranges up to 2048 (and 16 bins): 11% fewer instructions
+/// for the whole build; with the partition change of the same round (see
+/// parallel_partition_items) SAH cost 1M tets 1271.34 -> 1273.05 (+0.1%),
+/// 1M hexes +0.7%, component8 (608k tets) +0.4%, boxturb 0%.
 inline constexpr uint64_t sample_items = 128;
 
 /// Bins and their item counts for the three axes. Plain data so that a
@@ -165,9 +166,10 @@ template <class Index> struct SahSplitter {
     if (depth >= depth_guard) return n <= max_leaf ? leaf : object_median_split(slots, b, e, wide);
 
     // Sampled ranges (see below) get twice the bins: the binning costs the
-    // same, the planes are finer (1M tets: SAH 1271 -> 1269). Small ranges
-    // get n / 4 bins: the sweep per split, not the binning, dominates
-    // there, and a few items need no fine planes (SAH within 0.4%).
+    // same, the planes are finer (1M tets with 128-item samples: SAH 1279 at
+    // 16 bins, 1269 at 32). Small ranges get n / 4 bins: the sweep per
+    // split, not the binning, dominates there, and a few items need no fine
+    // planes (n / 2 bins: 3.5% more instructions, component8 SAH -0.2%).
     bool const sampled = n > 2 * sample_items;
     int const nb = sampled ? int(std::min<uint32_t>(2 * bins, max_sah_bins))
                            : int(std::min<uint64_t>(bins, std::max<uint64_t>(4, n / 4)));
