@@ -56,7 +56,9 @@ struct BuildOptions {
   /// at or below it the SAH termination criterion decides (morton: always a leaf).
   uint32_t max_leaf_size = 7;
   SahCosts sah{};
-  /// Bins per axis of the SAH builder, 2..64.
+  /// Bins per axis of the SAH builder, 2..64: ranges binned from a sample
+  /// (over 256 items) use twice as many (at most 64), ranges of n <= 256
+  /// items min(sah_bins, max(4, n / 4)).
   uint32_t sah_bins = 16;
   /// Store 64-bit item ids even when 32 bits would do (tests of the wide path).
   bool wide_items = false;
@@ -88,6 +90,13 @@ inline constexpr float inf_f = std::numeric_limits<float>::infinity();
 inline constexpr uint64_t local_build_items = 4096;
 /// Ranges of at least this many items are scanned / partitioned in parallel.
 inline constexpr uint64_t parallel_scan_items = uint64_t(1) << 15;
+/// Ranges of at least this many items are partitioned in fixed blocks (in
+/// parallel), smaller ones sequentially in one pass. The block partition
+/// moves about 1.45x the bytes (every block, then the strays between
+/// blocks), so it pays only where too few subtrees run side by side: the
+/// top one or two levels of a 1M-item build (below them, 4+ subtrees keep
+/// the cores busy). Depends on the range size only (determinism).
+inline constexpr uint64_t parallel_partition_items = uint64_t(1) << 18;
 /// Past this depth the SAH and median builders split at the object median,
 /// which bounds the depth by guard + log2(items) < MinMaxBvh::max_depth.
 inline constexpr uint32_t depth_guard = 64;
@@ -150,6 +159,11 @@ struct F4 {
     __m128 const v = x;
     return _mm_cvtss_f32(_mm_shuffle_ps(v, v, L * 0x55));
   }
+  /// Lane L truncated to int, for a lane known to lie in [0, 2^31) (a shuffle and a convert, no store).
+  template <int L> int32_t lane_int() const noexcept {
+    __m128 const v = x;
+    return _mm_cvttss_si32(_mm_shuffle_ps(v, v, L * 0x55));
+  }
   /// lanes 0-2: a0 * b0 + a1 * b1 + a2 * b2, lane 3 ignored; no store.
   friend float dot3(F4 a, F4 b) noexcept {
     __m128 const t = (a.x * b.x);
@@ -185,6 +199,7 @@ struct F4 {
     for (int k = 0; k < 4; ++k) out[k] = int32_t(x[k]);
   }
   template <int L> float lane() const noexcept { return x[L]; }
+  template <int L> int32_t lane_int() const noexcept { return int32_t(x[L]); }
   friend float dot3(F4 a, F4 b) noexcept { return a.x[0] * b.x[0] + a.x[2] * b.x[2] + a.x[1] * b.x[1]; }
   F4 yzx() const noexcept { return {{x[1], x[2], x[0], x[3]}}; }
   friend int finite_ordered(F4 lo, F4 hi) noexcept {
@@ -307,12 +322,17 @@ inline F4 centroid4(ItemBox const& b) noexcept {
 /// Two-ended in-place partition of slots [b, e) (sequential): those whose
 /// doubled centroid p (lanes 0-2) satisfies `goes_left(p)` come first.
 template <class Index, class Pred>
-Split partition_sequential(Slots<Index> const& s, uint64_t b, uint64_t e, Pred const& goes_left) {
+Split partition_sequential(Slots<Index> const& s, uint64_t b, uint64_t e, Pred const& pred) {
+  // Local copies: the swaps' stores could alias `s` and the predicate's
+  // captures, which GCC would then reload for every item.
+  ItemBox* const box = s.box;
+  Index* const id = s.id;
+  Pred const goes_left = pred;
   PointBounds4 left, right;
   uint64_t i = b, j = e;  // [b, i) go left, [j, e) go right
   while (true) {
     while (i < j) {
-      F4 const p = centroid4(s.box[i]);
+      F4 const p = centroid4(box[i]);
       if (!goes_left(p)) {
         right.grow(p);  // slot i goes right; find a left one behind it
         break;
@@ -323,10 +343,11 @@ Split partition_sequential(Slots<Index> const& s, uint64_t b, uint64_t e, Pred c
     if (i == j) break;
     bool swapped = false;
     while (--j > i) {
-      F4 const p = centroid4(s.box[j]);
+      F4 const p = centroid4(box[j]);
       if (goes_left(p)) {
         left.grow(p);
-        s.swap(i, j);
+        std::swap(box[i], box[j]);
+        std::swap(id[i], id[j]);
         ++i;
         swapped = true;
         break;
@@ -348,7 +369,7 @@ Split partition_sequential(Slots<Index> const& s, uint64_t b, uint64_t e, Pred c
 template <class Index, class Pred>
 Split partition_slots(Slots<Index> const& s, uint64_t b, uint64_t e, Pred const& goes_left) {
   uint64_t const n = e - b;
-  if (n < parallel_scan_items) return partition_sequential(s, b, e, goes_left);
+  if (n < parallel_partition_items) return partition_sequential(s, b, e, goes_left);
   uint64_t const blocks = (n + scan_block - 1) / scan_block;
   std::vector<Split> part(blocks);
   tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& r) {
