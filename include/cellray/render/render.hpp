@@ -125,6 +125,24 @@ struct DvrParams {
   DvrShading shading;  ///< off by default
 };
 
+/// What a shadow or ambient-occlusion ray asks of the tree.
+enum class SecondaryQuery {
+  nearest,    ///< the nearest isosurface hit, one packet per pixel block and AO sample
+  occlusion,  ///< any hit (early exit per lane and packet), one packet per pixel block and AO sample
+  /// Any hit; a pixel block's AO rays (up to 4 samples at a time) regrouped
+  /// by direction into dense packets (shadow rays as `occlusion`).
+  sorted,
+  /// As `sorted`, and the regrouped packets go 4 at a time through one
+  /// traversal (nodes and cell corners read once for all of them).
+  grouped,
+};
+
+inline constexpr char const* secondary_query_name(SecondaryQuery q) {
+  return q == SecondaryQuery::nearest ? "nearest" : q == SecondaryQuery::occlusion ? "occlusion"
+                                                                                 : q == SecondaryQuery::sorted ? "sorted"
+                                                                                                               : "grouped";
+}
+
 /// Where and how to run.
 struct RenderOptions {
   Isa isa = default_isa();
@@ -133,6 +151,12 @@ struct RenderOptions {
   /// still share most nodes: packet traversal measured 6x faster than SPMD
   /// and 3x faster than hybrid there (bench/bench_targets, README Performance).
   Traversal secondary_traversal = Traversal::packet;
+  /// Shadow and AO rays: which query. Every choice gives the same image:
+  /// occlusion answers "is there a hit in [eps, radius]" (AO) and "is the
+  /// light blocked" exactly as the nearest hit does; shadows with surfaces
+  /// of different opacities take the nearest hit's opacity, so they always
+  /// use the nearest-hit query.
+  SecondaryQuery secondary_query = SecondaryQuery::sorted;
   int hybrid_threshold = 0;  ///< 0: a quarter of the packet width
   int tile_size = 32;        ///< pixels per tile side, scheduled on TBB
 };

@@ -1,0 +1,233 @@
+#pragma once
+// Occlusion (any-hit) queries for shadow and ambient-occlusion rays, and the
+// regrouping of such rays into packets of similar direction. ISA units only.
+//
+// A first-hit query keeps searching until it has the nearest crossing; a
+// shadow or AO ray only needs to know whether any isosurface crosses its
+// segment [tmin, tmax]. The occlusion query stops a lane at its first
+// crossing found (its search interval becomes empty, so the traversal drops
+// it at the next node) and the whole packet once every lane is occluded.
+// Whether a lane is occluded is exactly whether the first-hit query would
+// report a hit for it: the same cells are tested with the same kernel
+// (iso_in_window) over the same window.
+
+#include <cstdint>
+#include <limits>
+
+#include "cell_ops.hpp"
+#include "first_hit.hpp"
+#include "packet.hpp"
+#include "traverse.hpp"
+#include "tree_view.hpp"
+
+namespace cellray {
+inline namespace CELLRAY_ISA_NS {
+
+/// Any-hit query for the traversal skeletons (traverse.hpp): which lanes'
+/// segments [r.tmin, r.tmax] cross one of `isos` in a cell of `mesh`. NaN
+/// cells are never crossed. `occluded` is the answer once the traversal
+/// returns; lanes outside the traversal's `active` mask stay false.
+template <class A, int N> struct OcclusionQuery {
+  TreeView const& tree;
+  CellMesh<N> const& mesh;
+  RayPacket<A> const& r;
+  IsoSet const& isos;
+  CellIsoOptions const& method;
+  vmask<A> occluded = vmask<A>(false);
+  /// r.tmax for lanes still searching, -inf once occluded (box tests and
+  /// stack pops then fail for them).
+  vfloat<A> t_hi_ = r.tmax;
+  uint32_t pending = 0;  ///< bits of the active lanes not yet occluded
+
+  OcclusionQuery(TreeView const& t, CellMesh<N> const& m, RayPacket<A> const& rays, IsoSet const& i,
+                 CellIsoOptions const& o, vmask<A> const& active)
+      : tree(t), mesh(m), r(rays), isos(i), method(o), pending(simd::movemask(active)) {}
+
+  bool node_relevant(float vmin, float vmax) const { return isos.overlaps(vmin, vmax); }
+  vmask<A> relevant(vfloat<A> const& vmin, vfloat<A> const& vmax) const {
+    vmask<A> m(false);
+    for (int k = 0; k < isos.count; ++k) m = m || (vfloat<A>(isos.values[k]) >= vmin && vfloat<A>(isos.values[k]) <= vmax);
+    return m;
+  }
+  bool done() const { return pending == 0; }
+  vfloat<A> t_lo() const { return r.tmin; }
+  vfloat<A> t_hi() const { return t_hi_; }
+
+  void mark(vmask<A> const& f) {
+    occluded = occluded || f;
+    t_hi_ = simd::select(f, vfloat<A>(-std::numeric_limits<float>::infinity()), t_hi_);
+    pending &= ~simd::movemask(f);
+  }
+
+  void leaf(uint64_t first, uint32_t count, vmask<A> const& m) {
+    if (!mesh.values()) return;  // NaN everywhere: no cell can hold a crossing
+    for (uint64_t i = first; i < first + count; ++i) {
+      // Lanes occluded by an earlier item of this leaf are done.
+      vmask<A> const live = m && !occluded;
+      if (simd::none(live)) return;
+      CellCorners<A, N> c;
+      if (!broadcast_corners_if_iso<A, N>(mesh, tree.item(i), isos, c)) continue;
+      vmask<A> const lanes = live && cell_box_hit<A, N>(r, c, r.tmin, t_hi_);
+      if (simd::none(lanes)) continue;
+      CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, lanes, r.tmin, t_hi_, isos.values, isos.count, method);
+      if (simd::any(h.hit && lanes)) mark(h.hit && lanes);
+    }
+  }
+
+  void leaf_items(vint<A> const& slots, vmask<A> const& m) {
+    if (!mesh.values()) return;
+    vmask<A> const live = m && !occluded;
+    if (simd::none(live)) return;
+    vint<A> const cells = slot_cells<A>(tree, slots, live);
+    alignas(64) int32_t cell[width<A>];
+    simd::store(cell, cells);
+    uint32_t keep = 0;
+    for (uint32_t b = simd::movemask(live); b; b &= b - 1) {
+      int const l = __builtin_ctz(b);
+      ScalarCorners<N> k;
+      read_corner_values(mesh, uint64_t(uint32_t(cell[l])), k);
+      if (isos.overlaps(k.lo, k.hi)) keep |= 1u << l;  // false for NaN
+    }
+    if (!keep) return;
+    vmask<A> const lanes = simd::mask_from_bits<A>(keep);
+    CellCorners<A, N> const c = gather_corners<A, N>(mesh, cells, lanes);
+    CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, lanes, r.tmin, t_hi_, isos.values, isos.count, method);
+    if (simd::any(h.hit && lanes)) mark(h.hit && lanes);
+  }
+};
+
+/// Occlusion of W rays in one tree with the given traversal: the lanes of
+/// `active` whose segment crosses an isosurface of `mesh`.
+template <class A, int N>
+inline vmask<A> occluded_in(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A> const& r, vmask<A> active,
+                            IsoSet const& isos, CellIsoOptions const& method, Traversal how, int hybrid_threshold) {
+  OcclusionQuery<A, N> q(tree, mesh, r, isos, method, active);
+  switch (how) {
+    case Traversal::packet: traverse_packet<A>(tree, r, active, q); break;
+    case Traversal::hybrid: traverse_packet<A>(tree, r, active, q, 0, hybrid_threshold); break;
+    case Traversal::spmd: traverse_spmd<A>(tree, r, active, q); break;
+  }
+  return q.occluded && active;
+}
+
+/// Occlusion of K packets of W rays in one traversal: each node is visited
+/// once for all K x W rays, each relevant cell's corners read once, and only
+/// the packets whose lanes meet the cell's box run the clip. For incoherent
+/// rays leaving one pixel block (AO), K packets of W rays visit nearly the
+/// same nodes one by one; together they pay the traversal and the corner
+/// reads once. `pending[k]`: on entry the lanes of packet k to trace, on
+/// return those not occluded (occluded = entry bits minus return bits). The
+/// answer per lane is OcclusionQuery's. No value array: nothing occluded.
+template <class A, int K, int N>
+void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A> const (&r)[K],
+                      uint32_t (&pending)[K], IsoSet const& isos, CellIsoOptions const& method) {
+  if (tree.empty() || !mesh.values()) return;
+  struct Entry {
+    uint32_t node;
+    uint32_t lanes[K];  ///< lanes of each packet that entered the node's box
+  };
+  Entry stack[traversal_stack_size];
+  int sp = 0;
+  auto const enter = [&](uint32_t ni, uint32_t const* from, Entry& e) {
+    Node const& node = tree.nodes[ni];
+    uint32_t any = 0;
+    e.node = ni;
+    for (int k = 0; k < K; ++k) {
+      e.lanes[k] = 0;
+      if (!from[k]) continue;
+      vfloat<A> tn;
+      e.lanes[k] = simd::movemask(simd::mask_from_bits<A>(from[k]) &&
+                                  box_hit(r[k], node.lo, node.hi, r[k].tmin, r[k].tmax, tn));
+      any |= e.lanes[k];
+    }
+    return any != 0;
+  };
+  if (!isos.overlaps(tree.ranges[0], tree.ranges[1])) return;
+  if (enter(0, pending, stack[0])) sp = 1;
+  while (sp > 0) {
+    Entry e = stack[--sp];
+    uint32_t any = 0;
+    for (int k = 0; k < K; ++k) any |= e.lanes[k] &= pending[k];  // occluded since the push: done
+    if (!any) continue;
+    Node const& node = tree.nodes[e.node];
+    if (node.is_leaf()) {
+      uint64_t const first = node.first_item();
+      for (uint64_t i = first; i < first + node.item_count(); ++i) {
+        ScalarCorners<N> sc;
+        read_corner_values(mesh, tree.item(i), sc);
+        if (!isos.overlaps(sc.lo, sc.hi)) continue;  // false for NaN
+        order_corners(mesh.vertex_count(), sc);
+        CellCorners<A, N> const c = broadcast<A, N>(mesh, sc);
+        vfloat<A> lo[3] = {c.x[0], c.y[0], c.z[0]}, hi[3] = {c.x[0], c.y[0], c.z[0]};
+        for (int j = 1; j < N; ++j) {
+          lo[0] = simd::min(lo[0], c.x[j]), hi[0] = simd::max(hi[0], c.x[j]);
+          lo[1] = simd::min(lo[1], c.y[j]), hi[1] = simd::max(hi[1], c.y[j]);
+          lo[2] = simd::min(lo[2], c.z[j]), hi[2] = simd::max(hi[2], c.z[j]);
+        }
+        uint32_t left = 0;
+        for (int k = 0; k < K; ++k) {
+          uint32_t const live = e.lanes[k] & pending[k];
+          if (!live) continue;
+          vfloat<A> tn;
+          vmask<A> const lanes =
+              simd::mask_from_bits<A>(live) && box_hit_varying(r[k], lo, hi, r[k].tmin, r[k].tmax, tn);
+          if (simd::any(lanes)) {
+            CellIsoHit<A> const h =
+                iso_in_window(ray_batch(r[k]), c, lanes, r[k].tmin, r[k].tmax, isos.values, isos.count, method);
+            pending[k] &= ~simd::movemask(h.hit && lanes);
+          }
+          left |= e.lanes[k] & pending[k];
+        }
+        if (!left) break;
+      }
+      continue;
+    }
+    uint32_t const li = node.left(), ri = node.right();
+    Entry el, er;
+    bool const hl = isos.overlaps(tree.ranges[2 * li], tree.ranges[2 * li + 1]) && enter(li, e.lanes, el);
+    bool const hr = isos.overlaps(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]) && enter(ri, e.lanes, er);
+    // The builders cap the depth at MinMaxBvh::max_depth, so the stack holds.
+    // Any order finds the same answers; the left child is taken first.
+    if (hr) stack[sp++] = er;
+    if (hl) stack[sp++] = el;
+  }
+}
+
+/// Direction bin of a ray for regrouping incoherent rays: the cube-map face
+/// of `d` (6) and a 4x4 cell on it in Morton order, so consecutive keys are
+/// neighbouring directions. 0..95; zero directions get 0. The bin only
+/// decides which rays share a packet, never a ray's answer.
+inline uint32_t direction_bin(float dx, float dy, float dz) {
+  float const ax = dx < 0.f ? -dx : dx, ay = dy < 0.f ? -dy : dy, az = dz < 0.f ? -dz : dz;
+  int axis = 0;
+  float major = ax, u = dy, v = dz, sign = dx;
+  if (ay > major) axis = 1, major = ay, u = dz, v = dx, sign = dy;
+  if (az > major) axis = 2, major = az, u = dx, v = dy, sign = dz;
+  if (!(major > 0.f)) return 0;
+  auto const cell = [major](float x) {
+    int const q = int((x / major + 1.f) * 2.f);  // [-1, 1] -> 0..4
+    return uint32_t(q < 0 ? 0 : q > 3 ? 3 : q);
+  };
+  uint32_t const qu = cell(u), qv = cell(v);
+  uint32_t const morton = (qu & 1u) | ((qv & 1u) << 1) | ((qu & 2u) << 1) | ((qv & 2u) << 2);
+  return uint32_t(2 * axis + (sign < 0.f ? 1 : 0)) * 16u + morton;
+}
+
+/// Sorts `order[0..n)` by `key[order[i]]`, stable (insertion sort: n is a
+/// pixel block's rays, at most a few hundred, and std::sort has no place in
+/// ISA-unit code, TOOLCHAIN.md).
+inline void sort_by_key(uint16_t* order, int n, uint32_t const* key) {
+  for (int i = 1; i < n; ++i) {
+    uint16_t const x = order[i];
+    uint32_t const kx = key[x];
+    int j = i - 1;
+    while (j >= 0 && key[order[j]] > kx) {
+      order[j + 1] = order[j];
+      --j;
+    }
+    order[j + 1] = x;
+  }
+}
+
+}  // namespace CELLRAY_ISA_NS
+}  // namespace cellray
