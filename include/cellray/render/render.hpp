@@ -156,7 +156,7 @@ struct RenderOptions {
   /// light blocked" exactly as the nearest hit does; shadows with surfaces
   /// of different opacities take the nearest hit's opacity, so they always
   /// use the nearest-hit query.
-  SecondaryQuery secondary_query = SecondaryQuery::sorted;
+  SecondaryQuery secondary_query = SecondaryQuery::grouped;
   int hybrid_threshold = 0;  ///< 0: a quarter of the packet width
   int tile_size = 32;        ///< pixels per tile side, scheduled on TBB
 };
