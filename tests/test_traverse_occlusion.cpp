@@ -138,6 +138,8 @@ void check_occlusion(std::string const& name, CellMesh<N> const& mesh, std::vect
         if (occ[i] != uint8_t(nearest[i].hit())) ++unlike_nearest;
       }
       CHECK(wrong == 0);
+      // The same cell code on the same data (grouped packets: one cell and
+      // one ray per lane, TetPairs): the nearest-hit query's answers.
       CHECK(unlike_nearest == 0);
     }
 }
