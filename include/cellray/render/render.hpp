@@ -147,15 +147,19 @@ inline constexpr char const* secondary_query_name(SecondaryQuery q) {
 struct RenderOptions {
   Isa isa = default_isa();
   Traversal traversal = Traversal::packet;  ///< primary rays
-  /// Shadow and AO rays. Packets of them start at neighbouring hit points and
-  /// still share most nodes: packet traversal measured 6x faster than SPMD
-  /// and 3x faster than hybrid there (bench/bench_targets, README Performance).
+  /// Shadow and AO rays (not used by `grouped` AO rays, which traverse as
+  /// packets). Packets of them start at neighbouring hit points and still
+  /// share most nodes: packet traversal measured 6x faster than SPMD and 3x
+  /// faster than hybrid there (bench/bench_targets, README Performance).
   Traversal secondary_traversal = Traversal::packet;
   /// Shadow and AO rays: which query. Every choice gives the same image:
-  /// occlusion answers "is there a hit in [eps, radius]" (AO) and "is the
-  /// light blocked" exactly as the nearest hit does; shadows with surfaces
-  /// of different opacities take the nearest hit's opacity, so they always
-  /// use the nearest-hit query.
+  /// any-hit queries answer "is there a crossing in [eps, radius]" (AO) and
+  /// "is the light blocked" as the nearest hit does (same cells, same
+  /// kernel, same window); shadows with surfaces of different opacities
+  /// keep the nearest hit's opacity (the reference renderer's meaning), so
+  /// they always use the nearest-hit query. Default `grouped`: component8,
+  /// 512x512, headlight shadows + 4 AO rays per hit, 1 thread, AVX-512:
+  /// secondary time 1.9x below `nearest` (bench/bench_targets).
   SecondaryQuery secondary_query = SecondaryQuery::grouped;
   int hybrid_threshold = 0;  ///< 0: a quarter of the packet width
   int tile_size = 32;        ///< pixels per tile side, scheduled on TBB
