@@ -212,8 +212,11 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           bool one_opacity = true;
           for (IsoSurface const& surf : p.surfaces) one_opacity = one_opacity && surf.opacity == p.surfaces[0].opacity;
           if (any_hit && one_opacity) {
-            uint32_t const occ = simd::movemask(scene_occluded<A>(s, srp, simd::mask_from_bits<A>(hit_bits), isos,
-                                                                  p.roots, o.secondary_traversal, threshold));
+            vmask<A> const lanes = simd::mask_from_bits<A>(hit_bits);
+            uint32_t const occ = simd::movemask(
+                o.secondary_query == SecondaryQuery::grouped
+                    ? scene_occluded_paired<A>(s, srp, lanes, isos, p.roots)
+                    : scene_occluded<A>(s, srp, lanes, isos, p.roots, o.secondary_traversal, threshold));
             for (int l = 0; l < W; ++l)
               if ((hit_bits & occ) >> l & 1u) visibility[l] = 1.f - p.surfaces[0].opacity;
           } else {
