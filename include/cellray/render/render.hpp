@@ -157,9 +157,11 @@ struct RenderOptions {
   /// "is the light blocked" as the nearest hit does (same cells, same
   /// kernel, same window); shadows with surfaces of different opacities
   /// keep the nearest hit's opacity (the reference renderer's meaning), so
-  /// they always use the nearest-hit query. Default `grouped`: component8,
-  /// 512x512, headlight shadows + 4 AO rays per hit, 1 thread, AVX-512:
-  /// secondary time 1.9x below `nearest` (bench/bench_targets).
+  /// they always use the nearest-hit query. Default `grouped`, measured on
+  /// component8 with headlight shadows + 4 AO rays per hit, 1 thread: the
+  /// secondary rays' instructions 1.61x fewer than `nearest` (callgrind,
+  /// AVX2, 256x256), CPU time 1.4-1.9x less (AVX-512, 512x512, shared
+  /// machine; bench/bench_targets prints it).
   SecondaryQuery secondary_query = SecondaryQuery::grouped;
   int hybrid_threshold = 0;  ///< 0: a quarter of the packet width
   int tile_size = 32;        ///< pixels per tile side, scheduled on TBB
