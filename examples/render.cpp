@@ -804,10 +804,10 @@ int run(Options const& o) {
     j["renderer"] = o.reference ? "reference" : "fast";
     j["isa"] = isa_name(isa);
     j["traversal"] = traversal_name(traversal);
-    j["secondary"] = secondary_query_name(ro.secondary_query);
     j["threads"] = threads;
     j["width"] = width;
     j["height"] = height;
+    j["secondary"] = secondary_query_name(ro.secondary_query);
     j["load_ms"] = load_ms;
     j["builder"] = builder_name(bo.builder);
     j["leaf_size"] = o.leaf_size;
