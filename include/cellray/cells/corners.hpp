@@ -156,6 +156,19 @@ template <int N> CELLRAY_FORCE_INLINE void read_corner_values(CellMesh<N> const&
   k.hi = nan ? std::numeric_limits<float>::quiet_NaN() : hi;
 }
 
+/// Bounding box of the corners `k` (positions `xyz`, 3 floats per vertex),
+/// in any corner order: the same floats as a box over the broadcast corners,
+/// so a box test on it gives the same answer, before ordering or broadcasting.
+template <int N>
+CELLRAY_FORCE_INLINE void corner_box(float const* xyz, ScalarCorners<N> const& k, float (&lo)[3], float (&hi)[3]) {
+  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = xyz[3 * k.v[0] + uint64_t(a)];
+  for (int i = 1; i < N; ++i)
+    for (int a = 0; a < 3; ++a) {
+      float const x = xyz[3 * k.v[i] + uint64_t(a)];
+      lo[a] = std::min(lo[a], x), hi[a] = std::max(hi[a], x);
+    }
+}
+
 /// Computes the keys (corner_keys) and, for tets, puts the corners in
 /// canonical order.
 template <int N> CELLRAY_FORCE_INLINE void order_corners(uint64_t vertex_count, ScalarCorners<N>& k) {

@@ -284,19 +284,25 @@ template <class A> inline Located<A> locate_tet(PointBatch<A> const& pts, CellCo
   return r;
 }
 
-/// Analytic gradient of the tet's linear field (constant in the cell):
-/// sum of s_i * grad(lambda_i), grad(lambda_i) = n_i / side_i. Zero for a
-/// zero-volume tet; NaN when a corner value is NaN.
+/// Analytic gradient of the tet's linear field (constant in the cell): the
+/// solution of e_0k . g = s_k - s_0 (k = 1, 2, 3, e_0k = p_k - p_0), i.e.
+/// g = (ds1 (e02 x e03) + ds2 (e03 x e01) + ds3 (e01 x e02)) / det with
+/// det = e01 . (e02 x e03). Value differences first: the corner values of a
+/// real field share a large offset (a temperature of ~400 varying by ~1 in a
+/// cell), which the form sum s_i grad(lambda_i) would cancel in float. One
+/// division; the cross products are the clip's face normals 1..3 (same
+/// corner order), so a caller that clipped the cell recomputes nothing new.
+/// Zero for a zero-volume tet; NaN when a corner value is NaN.
 template <class A> inline Vec3<A> gradient_tet(CellCorners<A, 4> const& c) {
   vfloat<A> const zero(0.f);
-  Vec3<A> g{zero, zero, zero};
-  vmask<A> ok(true);
-  for (int f = 0; f < 4; ++f) {
-    detail::TetFace<A> const F = detail::tet_face(c, f);
-    ok = ok && !(F.side == zero);
-    g = g + (c.s[f] / F.side) * F.n;
-  }
-  return select<A>(ok, g, Vec3<A>{zero, zero, zero});
+  Vec3<A> const p0 = c.p(0);
+  Vec3<A> const e01 = c.p(1) - p0, e02 = c.p(2) - p0, e03 = c.p(3) - p0;
+  Vec3<A> const n1 = cross(e02, e03), n2 = cross(e01, e03), n3 = cross(e01, e02);
+  vfloat<A> const det = dot(n3, e03);
+  vfloat<A> const ds1 = c.s[1] - c.s[0], ds2 = c.s[2] - c.s[0], ds3 = c.s[3] - c.s[0];
+  Vec3<A> const num = ds1 * n1 - ds2 * n2 + ds3 * n3;
+  vmask<A> const ok = !(det == zero);
+  return select<A>(ok, (vfloat<A>(1.f) / simd::select(ok, det, vfloat<A>(1.f))) * num, Vec3<A>{zero, zero, zero});
 }
 
 /// Central differences of the tet's interpolant around `p` with step `h`

@@ -30,6 +30,18 @@ namespace impl {
 template <class A> inline constexpr int block_w = width<A> >= 8 ? 4 : width<A> == 4 ? 2 : 1;
 template <class A> inline constexpr int block_h = width<A> / block_w<A>;
 
+/// Lane l's pixel offset (l % block_w, l / block_w) in its block, as floats.
+template <class A> struct BlockOffsets {
+  alignas(64) float dx[width<A>];
+  alignas(64) float dy[width<A>];
+};
+template <class A>
+inline constexpr BlockOffsets<A> block_offsets = [] {
+  BlockOffsets<A> b{};
+  for (int l = 0; l < width<A>; ++l) b.dx[l] = float(l % block_w<A>), b.dy[l] = float(l / block_w<A>);
+  return b;
+}();
+
 /// Primary rays of the pixel block at (bx, by), clipped to the tile: the
 /// directions of Camera::direction (same expressions), normalized, all
 /// lanes at once.
@@ -37,7 +49,6 @@ template <class A>
 inline RayPacket<A> camera_packet(Camera const& cam, Tile const& tile, int bx, int by, int (&px)[width<A>],
                                   int (&py)[width<A>], uint32_t& valid) {
   constexpr int W = width<A>;
-  alignas(64) float fx[W], fy[W];
   valid = 0;
   for (int l = 0; l < W; ++l) {
     int const x = bx + l % block_w<A>, y = by + l / block_w<A>;
@@ -45,13 +56,18 @@ inline RayPacket<A> camera_packet(Camera const& cam, Tile const& tile, int bx, i
     px[l] = in ? x : bx;
     py[l] = in ? y : by;
     if (in) valid |= 1u << l;
-    fx[l] = float(px[l]), fy[l] = float(py[l]);
   }
+  // Pixel coordinates as floats from constant lane offsets (exact: small
+  // integers), not from per-lane conversions stored and reloaded as a vector.
+  vmask<A> const in = simd::mask_from_bits<A>(valid);
+  vfloat<A> const fbx(static_cast<float>(bx)), fby(static_cast<float>(by));
+  vfloat<A> const fx = simd::select(in, fbx + simd::load<A>(block_offsets<A>.dx), fbx);
+  vfloat<A> const fy = simd::select(in, fby + simd::load<A>(block_offsets<A>.dy), fby);
   float const aspect = float(cam.width) / float(cam.height);
   vfloat<A> const one(1.f), two(2.f), half(0.5f);
-  vfloat<A> const u = ((simd::load<A>(fx) + half) / vfloat<A>(float(cam.width)) * two - one) *
-                      vfloat<A>(cam.tan_half_fov) * vfloat<A>(aspect);
-  vfloat<A> const v = (one - (simd::load<A>(fy) + half) / vfloat<A>(float(cam.height)) * two) * vfloat<A>(cam.tan_half_fov);
+  vfloat<A> const u = ((fx + half) / vfloat<A>(float(cam.width)) * two - one) * vfloat<A>(cam.tan_half_fov) *
+                      vfloat<A>(aspect);
+  vfloat<A> const v = (one - (fy + half) / vfloat<A>(float(cam.height)) * two) * vfloat<A>(cam.tan_half_fov);
   vfloat<A> dx = vfloat<A>(cam.forward.x) + u * vfloat<A>(cam.right.x) + v * vfloat<A>(cam.up.x);
   vfloat<A> dy = vfloat<A>(cam.forward.y) + u * vfloat<A>(cam.right.y) + v * vfloat<A>(cam.up.y);
   vfloat<A> dz = vfloat<A>(cam.forward.z) + u * vfloat<A>(cam.right.z) + v * vfloat<A>(cam.up.z);
@@ -76,7 +92,7 @@ inline RayPacket<A> camera_packet(Camera const& cam, Tile const& tile, int bx, i
 template <class A> struct SceneHit {
   vfloat<A> t;
   vint<A> iso, item, part;  ///< part: index into PreparedScene::parts
-  Vec3<A> grad{};           ///< hex hits, when asked for: analytic gradient (FirstHitQuery::grad)
+  Vec3<A> grad{};           ///< when asked for: the analytic gradient at the hit (FirstHitQuery::grad)
 };
 
 template <class A, int N>
@@ -96,18 +112,18 @@ inline void hit_part(PreparedPart const& part, CellMesh<N> const& mesh, RayPacke
   best.iso = simd::select(bi, q.hit.iso, best.iso);
   best.item = simd::select(bi, q.hit.item, best.item);
   best.part = simd::select(bi, vint<A>(part_index), best.part);
-  if (N == 8 && gradient) best.grad = select<A>(better, q.grad, best.grad);
+  if (gradient) best.grad = select<A>(better, q.grad, best.grad);
 }
 
-/// `hex_gradient`: hex hits also bring their analytic gradient (SceneHit::grad).
+/// `gradient`: hits also bring their analytic gradient (SceneHit::grad).
 template <class A>
 inline SceneHit<A> nearest_hit(PreparedScene const& s, RayPacket<A> const& r, vmask<A> active, IsoSet const& isos,
-                               CellIsoOptions const& roots, Traversal how, int threshold, bool hex_gradient = false) {
+                               CellIsoOptions const& roots, Traversal how, int threshold, bool gradient = false) {
   SceneHit<A> best{r.tmax, vint<A>(-1), vint<A>(-1), vint<A>(-1)};
   for (size_t p = 0; p < s.parts.size(); ++p) {
     PreparedPart const& part = s.parts[p];
-    if (part.tets) hit_part<A>(part, *part.tets, r, active, isos, roots, how, threshold, int(p), best, false);
-    else hit_part<A>(part, *part.hexes, r, active, isos, roots, how, threshold, int(p), best, hex_gradient);
+    if (part.tets) hit_part<A>(part, *part.tets, r, active, isos, roots, how, threshold, int(p), best, gradient);
+    else hit_part<A>(part, *part.hexes, r, active, isos, roots, how, threshold, int(p), best, gradient);
   }
   return best;
 }
@@ -119,11 +135,20 @@ inline glm::vec3 normal_at(PreparedPart const& part, uint64_t slot, glm::vec3 p,
   return part.tets ? hit_normal(*part.tets, cell, at_hit, 0.f, m) : hit_normal(*part.hexes, cell, at_hit, 0.f, m);
 }
 
-/// Unit shading normal from a field gradient (two-sided), as hit_normal.
-__attribute__((noinline)) inline glm::vec3 normal_from_gradient(float gx, float gy, float gz, glm::vec3 dir) {
-  Vec3<scalar> const g{gx, gy, gz}, d{dir.x, dir.y, dir.z};
-  Vec3<scalar> const n = face_forward<scalar>(shading_normal<scalar>(g, d), d);
-  return {n.x, n.y, n.z};
+/// x^e per lane (xsimd's vector pow; std::pow for the scalar arch).
+template <class A> inline vfloat<A> pow_batch(vfloat<A> const& x, float e) {
+  if constexpr (std::is_same_v<A, scalar>) return std::pow(x, e);
+  else return xsimd::pow(x, vfloat<A>(e));
+}
+
+/// Unit vector per lane (a zero vector gives NaN, as glm::normalize).
+template <class A> inline Vec3<A> normalized(Vec3<A> const& v) {
+  return (vfloat<A>(1.f) / simd::sqrt(dot(v, v))) * v;
+}
+
+/// Lane `l` of a Vec3 stored as three arrays.
+template <size_t W> inline glm::vec3 lane_vec(std::array<float, W> const (&v)[3], int l) {
+  return {v[0][size_t(l)], v[1][size_t(l)], v[2][size_t(l)]};
 }
 
 /// Deterministic per-pixel hash in [0, 1): AO directions must not flicker
@@ -150,51 +175,66 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
   float const ao_radius = p.ao_radius > 0.f ? p.ao_radius : 0.05f * s.diagonal;
   bool const headlight = !(glm::length(p.light_dir) > 0.f);
   glm::vec3 const light = headlight ? glm::vec3(0.f) : glm::normalize(p.light_dir);
-  // Hex hits shade from the gradient the iso query computed per cell
-  // (analytic normals); tets and central differences per lane (normal_at).
-  bool hex_gradient = false;
-  for (PreparedPart const& part : s.parts) hex_gradient = hex_gradient || part.hexes;
-  hex_gradient = hex_gradient && p.normals == GradientMethod::analytic;
+  // Analytic normals come with the hits: the iso query computes the
+  // gradient once per hit cell from the corners it already loaded (tets:
+  // constant per cell; hexes: at the hit's coordinates). Central differences
+  // locate each hit again, per lane (normal_at).
+  bool const query_gradient = p.normals == GradientMethod::analytic;
+  vfloat<A> const zero(0.f), one(1.f);
+  Vec3<A> const eye{vfloat<A>(cam.eye.x), vfloat<A>(cam.eye.y), vfloat<A>(cam.eye.z)};
 
   for (int by = tile.y0; by < tile.y0 + tile.h; by += block_h<A>)
     for (int bx = tile.x0; bx < tile.x0 + tile.w; bx += block_w<A>) {
       int px[W], py[W];
       uint32_t valid;
       RayPacket<A> r = camera_packet<A>(cam, tile, bx, by, px, py, valid);
-      glm::vec3 color[W];
-      float alpha[W];
-      float tmin[W];
-      for (int l = 0; l < W; ++l) color[l] = glm::vec3(0.f), alpha[l] = 0.f, tmin[l] = 0.f;
+      Vec3<A> const dir = ray_batch(r).dir();
+      vfloat<A> color_r = zero, color_g = zero, color_b = zero, alpha = zero;
+      r.tmin = zero;
       uint32_t live = valid;
       // Front-to-back layers: continue behind semi-transparent surfaces.
       for (int layer = 0; layer < 16 && live; ++layer) {
-        r.tmin = simd::load<A>(tmin);
         SceneHit<A> const h = nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots, o.traversal, threshold,
-                                             hex_gradient);
-        auto const t = simd::to_array<A>(h.t);
-        std::array<float, W> gx{}, gy{}, gz{};
-        if (hex_gradient)
-          gx = simd::to_array<A>(h.grad.x), gy = simd::to_array<A>(h.grad.y), gz = simd::to_array<A>(h.grad.z);
+                                             query_gradient);
+        vmask<A> const hit = simd::mask_from_bits<A>(live) && simd::to_float_mask(h.item >= vint<A>(0));
+        uint32_t hit_bits = simd::movemask(hit);
+        if (!hit_bits) break;
+        // Hit points, normals and the light, all lanes at once (lanes
+        // without a hit compute garbage nobody reads); the shadow and AO
+        // rays below read them per lane.
+        vfloat<A> const t = simd::select(hit, h.t, zero);
+        Vec3<A> const hit_pos = eye + t * dir;
+        Vec3<A> normal{};
+        if (query_gradient) normal = face_forward<A>(shading_normal<A>(h.grad, dir), dir);
+        Vec3<A> const to_light = headlight ? vfloat<A>(-1.f) * normalized<A>(dir)
+                                           : Vec3<A>{vfloat<A>(light.x), vfloat<A>(light.y), vfloat<A>(light.z)};
+        std::array<float, W> const pos_a[3] = {simd::to_array<A>(hit_pos.x), simd::to_array<A>(hit_pos.y),
+                                               simd::to_array<A>(hit_pos.z)};
+        std::array<float, W> const ldir_a[3] = {simd::to_array<A>(to_light.x), simd::to_array<A>(to_light.y),
+                                                simd::to_array<A>(to_light.z)};
+        std::array<float, W> nrm_a[3] = {simd::to_array<A>(normal.x), simd::to_array<A>(normal.y),
+                                         simd::to_array<A>(normal.z)};
         auto const iso = simd::to_array<A>(h.iso), item = simd::to_array<A>(h.item), part = simd::to_array<A>(h.part);
-        auto const dx = simd::to_array<A>(r.dx), dy = simd::to_array<A>(r.dy), dz = simd::to_array<A>(r.dz);
-        // Hit points, normals and the light per lane; shadow and AO rays
-        // from these points form packets of their own.
-        glm::vec3 pos[W], nrm[W], ldir[W], base[W];
-        float opacity[W];
-        uint32_t hit_bits = 0;
-        for (int l = 0; l < W; ++l) {
-          if (!((live >> l) & 1u) || item[l] < 0) continue;
-          hit_bits |= 1u << l;
-          glm::vec3 const d(dx[l], dy[l], dz[l]);
-          pos[l] = cam.eye + t[l] * d;
-          nrm[l] = hex_gradient && s.parts[size_t(part[l])].hexes
-                       ? normal_from_gradient(gx[l], gy[l], gz[l], d)
-                       : normal_at(s.parts[size_t(part[l])], uint64_t(item[l]), pos[l], d, p.normals);
-          ldir[l] = headlight ? -glm::normalize(d) : light;
+        glm::vec3 pos[W], nrm[W], ldir[W];
+        alignas(64) float base_r[W] = {}, base_g[W] = {}, base_b[W] = {}, opacity[W] = {};
+        for (uint32_t bits = hit_bits; bits; bits &= bits - 1) {
+          int const l = __builtin_ctz(bits);
+          pos[l] = lane_vec<W>(pos_a, l);
+          ldir[l] = lane_vec<W>(ldir_a, l);
+          if (!query_gradient) {
+            std::array<float, W> const dir_a[3] = {simd::to_array<A>(dir.x), simd::to_array<A>(dir.y),
+                                                   simd::to_array<A>(dir.z)};
+            glm::vec3 const n = normal_at(s.parts[size_t(part[l])], uint64_t(item[l]), pos[l], lane_vec<W>(dir_a, l),
+                                          p.normals);
+            nrm_a[0][size_t(l)] = n.x, nrm_a[1][size_t(l)] = n.y, nrm_a[2][size_t(l)] = n.z;
+          }
+          nrm[l] = lane_vec<W>(nrm_a, l);
           IsoSurface const& surf = p.surfaces[size_t(iso[l])];
-          base[l] = surf.color;
+          base_r[l] = surf.color.r, base_g[l] = surf.color.g, base_b[l] = surf.color.b;
           opacity[l] = surf.opacity;
         }
+        if (!query_gradient) normal = {simd::load<A>(nrm_a[0].data()), simd::load<A>(nrm_a[1].data()),
+                                       simd::load<A>(nrm_a[2].data())};
         float visibility[W], occlusion[W];
         for (int l = 0; l < W; ++l) visibility[l] = 1.f, occlusion[l] = 0.f;
         // Shadow and AO rays (RenderOptions::secondary_query). Any-hit
@@ -276,36 +316,35 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           for (int l = 0; l < W; ++l)
             if ((hit_bits & occ) >> l & 1u) occlusion[l] += 1.f / float(p.ao_samples);
         }
-        uint32_t next = 0;
-        for (int l = 0; l < W; ++l) {
-          if (!((hit_bits >> l) & 1u)) continue;
-          glm::vec3 const v = -glm::normalize(glm::vec3(dx[l], dy[l], dz[l]));
-          float const ndl = std::max(0.f, glm::dot(nrm[l], ldir[l]));
-          glm::vec3 const hv = glm::normalize(ldir[l] + v);
-          float const spec = ndl > 0.f ? std::pow(std::max(0.f, glm::dot(nrm[l], hv)), p.shininess) : 0.f;
-          // Ambient + diffuse + specular can sum past 1 (defaults: 0.2 + 0.7 +
-          // 0.25); the image holds [0, 1] (image.hpp), so clamp here, before
-          // compositing, not only when writing 8 bits.
-          glm::vec3 const shade = glm::min(
-              base[l] * (p.ambient * (1.f - occlusion[l]) + p.diffuse * ndl * visibility[l]) +
-                  glm::vec3(p.specular * spec * visibility[l]),
-              glm::vec3(1.f));
-          float const a = opacity[l] * (1.f - alpha[l]);
-          color[l] += a * shade;
-          alpha[l] += a;
-          if (alpha[l] < 0.99f) {
-            next |= 1u << l;
-            tmin[l] = t[l] + std::max(eps, 1e-5f * t[l]);
-          }
-        }
-        live = next;
+        // Lambert + Blinn-Phong, W lanes at once.
+        Vec3<A> const to_eye = vfloat<A>(-1.f) * normalized<A>(dir);
+        vfloat<A> const ndl = simd::max(zero, dot(normal, to_light));
+        vfloat<A> const ndh = simd::max(zero, dot(normal, normalized<A>(to_light + to_eye)));
+        vfloat<A> const vis = simd::load<A>(visibility);
+        vfloat<A> const spec =
+            simd::select(ndl > zero, vfloat<A>(p.specular) * pow_batch<A>(ndh, p.shininess) * vis, zero);
+        vfloat<A> const light_in = vfloat<A>(p.ambient) * (one - simd::load<A>(occlusion)) + vfloat<A>(p.diffuse) * ndl * vis;
+        // Ambient + diffuse + specular can sum past 1 (defaults: 0.2 + 0.7 +
+        // 0.25); the image holds [0, 1] (image.hpp), so clamp here, before
+        // compositing, not only when writing 8 bits.
+        vfloat<A> const a = simd::select(hit, simd::load<A>(opacity) * (one - alpha), zero);
+        color_r = color_r + a * simd::min(simd::load<A>(base_r) * light_in + spec, one);
+        color_g = color_g + a * simd::min(simd::load<A>(base_g) * light_in + spec, one);
+        color_b = color_b + a * simd::min(simd::load<A>(base_b) * light_in + spec, one);
+        alpha = alpha + a;
+        vmask<A> const next = hit && alpha < vfloat<A>(0.99f);
+        r.tmin = simd::select(next, t + simd::max(vfloat<A>(eps), vfloat<A>(1e-5f) * t), r.tmin);
+        live = simd::movemask(next);
       }
-      for (int l = 0; l < W; ++l) {
-        if (!((valid >> l) & 1u)) continue;
+      vfloat<A> const bg_a(p.background.a), rest = (one - alpha) * bg_a;
+      auto const cr = simd::to_array<A>(color_r + rest * vfloat<A>(p.background.r));
+      auto const cg = simd::to_array<A>(color_g + rest * vfloat<A>(p.background.g));
+      auto const cb = simd::to_array<A>(color_b + rest * vfloat<A>(p.background.b));
+      auto const ca = simd::to_array<A>(alpha + rest);
+      for (uint32_t bits = valid; bits; bits &= bits - 1) {
+        int const l = __builtin_ctz(bits);
         float* px_out = out.pixel(px[l], py[l]);
-        glm::vec3 const c = color[l] + (1.f - alpha[l]) * p.background.a * glm::vec3(p.background);
-        px_out[0] = c.x, px_out[1] = c.y, px_out[2] = c.z;
-        px_out[3] = alpha[l] + (1.f - alpha[l]) * p.background.a;
+        px_out[0] = cr[size_t(l)], px_out[1] = cg[size_t(l)], px_out[2] = cb[size_t(l)], px_out[3] = ca[size_t(l)];
       }
     }
 }
@@ -366,11 +405,6 @@ inline void shade_color(DvrShading const& sh, float inv_gradient_full, float con
   r += m * (std::min(1.f, r * lit + spec) - r);
   gr += m * (std::min(1.f, gr * lit + spec) - gr);
   b += m * (std::min(1.f, b * lit + spec) - b);
-}
-
-template <class A> inline vfloat<A> pow_batch(vfloat<A> const& x, float e) {
-  if constexpr (std::is_same_v<A, scalar>) return std::pow(x, e);
-  else return xsimd::pow(x, vfloat<A>(e));
 }
 
 /// The same shading per lane (SIMD): `gx, gy, gz` the gradient, `r` the rays.

@@ -22,21 +22,6 @@ template <class A> struct HitPacket {
   vint<A> iso;
 };
 
-/// broadcast_corners<A, N>(mesh, cell) into `c` when the cell's value range
-/// holds an isovalue (no NaN corner value), else false and `c` untouched:
-/// the values are read and tested before positions are loaded or corners
-/// ordered. `mesh` must have values.
-template <class A, int N>
-inline bool broadcast_corners_if_iso(CellMesh<N> const& mesh, uint64_t cell, IsoSet const& isos,
-                                     CellCorners<A, N>& c) {
-  ScalarCorners<N> k;
-  read_corner_values(mesh, cell, k);
-  if (!isos.overlaps(k.lo, k.hi)) return false;  // false for NaN
-  order_corners(mesh.vertex_count(), k);
-  c = broadcast<A, N>(mesh, k);
-  return true;
-}
-
 /// The first-hit query for the traversal skeletons (traverse.hpp).
 template <class A, int N> struct FirstHitQuery {
   TreeView const& tree;
@@ -45,10 +30,12 @@ template <class A, int N> struct FirstHitQuery {
   IsoSet const& isos;
   CellIsoOptions const& method;
   HitPacket<A> hit;
-  /// Hexes: also keep, in `grad`, the analytic field gradient (world space)
-  /// at each lane's hit, computed once per cell for all its hit lanes (the
-  /// shading normal's source, instead of locating each hit point again).
-  /// Tets ignore it. Lanes without a hit: unspecified.
+  /// Also keep, in `grad`, the analytic field gradient (world space) at each
+  /// lane's hit, computed once per cell for all its hit lanes from the
+  /// corners already loaded (the shading normal's source, instead of loading
+  /// and locating each hit again): gradient_tet (constant per cell) or
+  /// gradient_hex at the root's trilinear coordinates (no second point
+  /// location). Lanes without a hit: unspecified.
   bool want_gradient = false;
   Vec3<A> grad{};
 
@@ -70,18 +57,20 @@ template <class A, int N> struct FirstHitQuery {
 
   void leaf(uint64_t first, uint32_t count, vmask<A> const& m) {
     if (!mesh.values()) return;  // NaN everywhere: no cell can hold a crossing
+    float const* xyz = mesh.positions();
     for (uint64_t i = first; i < first + count; ++i) {
-      CellCorners<A, N> c;
-      if (!broadcast_corners_if_iso<A, N>(mesh, tree.item(i), isos, c)) continue;
-      if (simd::none(m && cell_box_hit<A, N>(r, c, r.tmin, hit.t))) continue;
-      if constexpr (N == 8) {
-        if (want_gradient) {
-          hex_cell_with_gradient(c, m, vint<A>(int32_t(i)));
-          continue;
-        }
-      }
-      CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method);
-      if (simd::any(h.hit)) update(h.hit, h.t, h.iso_index, vint<A>(int32_t(i)));
+      // Cheapest test first: the corner values (is an isovalue in range?),
+      // then the cell's box in scalar (a packet misses most cells of a leaf
+      // it reaches); only then order the corners and broadcast them.
+      ScalarCorners<N> k;
+      read_corner_values(mesh, tree.item(i), k);
+      if (!isos.overlaps(k.lo, k.hi)) continue;  // false for NaN
+      float lo[3], hi[3];
+      corner_box(xyz, k, lo, hi);
+      vfloat<A> tn;
+      if (simd::none(m && box_hit(r, lo, hi, r.tmin, hit.t, tn))) continue;
+      order_corners(mesh.vertex_count(), k);
+      cell_hits(broadcast<A, N>(mesh, k), m, vint<A>(int32_t(i)));
     }
   }
 
@@ -102,25 +91,22 @@ template <class A, int N> struct FirstHitQuery {
     }
     if (!keep) return;
     vmask<A> const live = simd::mask_from_bits<A>(keep);
-    CellCorners<A, N> const c = gather_corners<A, N>(mesh, cells, live);
-    if constexpr (N == 8) {
-      if (want_gradient) {
-        hex_cell_with_gradient(c, live, slots);
-        return;
-      }
-    }
-    CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, live, r.tmin, hit.t, isos.values, isos.count, method);
-    update(h.hit, h.t, h.iso_index, slots);
+    cell_hits(gather_corners<A, N>(mesh, cells, live), live, slots);
   }
 
-  /// Iso roots in one hex per lane (item-list slots `slots`) for lanes `m`,
-  /// keeping the gradient at each hit.
-  void hex_cell_with_gradient(CellCorners<A, N> const& c, vmask<A> const& m, vint<A> const& slots) {
+  /// Iso roots in one cell per lane (item-list slots `slots`) for lanes `m`,
+  /// keeping the gradient at each hit when asked (hexes need the hit's
+  /// trilinear coordinates for it; a tet's is one per cell).
+  void cell_hits(CellCorners<A, N> const& c, vmask<A> const& m, vint<A> const& slots) {
     Vec3<A> u{};
-    CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method, &u);
+    bool const hex_param = N == 8 && want_gradient;
+    CellIsoHit<A> const h =
+        iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method, hex_param ? &u : nullptr);
     if (simd::none(h.hit)) return;
     update(h.hit, h.t, h.iso_index, slots);
+    if (!want_gradient) return;
     if constexpr (N == 8) grad = select<A>(h.hit, gradient_hex(c, u), grad);
+    else grad = select<A>(h.hit, gradient_tet(c), grad);
   }
 };
 

@@ -78,7 +78,9 @@ void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> activ
   }
   vfloat<A> const slack(1.f + 4.f * std::numeric_limits<float>::epsilon());  // as box_hit's exit
   while (sp > 0) {
-    Entry const e = stack[--sp];
+    // By reference (no copy of the entry's vector): every read of `e`
+    // comes before the pushes below reuse its slot.
+    Entry const& e = stack[--sp];
     uint32_t const ni = e.node;
     Node const& node = tree.nodes[ni];
     vmask<A> const m = simd::mask_from_bits<A>(e.lanes) && e.t_enter <= q.t_hi() * slack;
