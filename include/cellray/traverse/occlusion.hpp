@@ -65,10 +65,18 @@ template <class A, int N> struct OcclusionQuery {
       // Lanes occluded by an earlier item of this leaf are done.
       vmask<A> const live = m && !occluded;
       if (simd::none(live)) return;
-      CellCorners<A, N> c;
-      if (!broadcast_corners_if_iso<A, N>(mesh, tree.item(i), isos, c)) continue;
-      vmask<A> const lanes = live && cell_box_hit<A, N>(r, c, r.tmin, t_hi_);
+      // As FirstHitQuery::leaf: values, then the cell's box in scalar, then
+      // the ordered, broadcast corners.
+      ScalarCorners<N> k;
+      read_corner_values(mesh, tree.item(i), k);
+      if (!isos.overlaps(k.lo, k.hi)) continue;  // false for NaN
+      float lo[3], hi[3];
+      corner_box(mesh.positions(), k, lo, hi);
+      vfloat<A> tn;
+      vmask<A> const lanes = live && box_hit(r, lo, hi, r.tmin, t_hi_, tn);
       if (simd::none(lanes)) continue;
+      order_corners(mesh.vertex_count(), k);
+      CellCorners<A, N> const c = broadcast<A, N>(mesh, k);
       CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, lanes, r.tmin, t_hi_, isos.values, isos.count, method);
       if (simd::any(h.hit && lanes)) mark(h.hit && lanes);
     }
@@ -207,21 +215,17 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
         ScalarCorners<N> sc;
         read_corner_values(mesh, tree.item(i), sc);
         if (!isos.overlaps(sc.lo, sc.hi)) continue;  // false for NaN
+        float lo[3], hi[3];
+        corner_box(mesh.positions(), sc, lo, hi);
         order_corners(mesh.vertex_count(), sc);
         CellCorners<A, N> const c = broadcast<A, N>(mesh, sc);
-        vfloat<A> lo[3] = {c.x[0], c.y[0], c.z[0]}, hi[3] = {c.x[0], c.y[0], c.z[0]};
-        for (int j = 1; j < N; ++j) {
-          lo[0] = simd::min(lo[0], c.x[j]), hi[0] = simd::max(hi[0], c.x[j]);
-          lo[1] = simd::min(lo[1], c.y[j]), hi[1] = simd::max(hi[1], c.y[j]);
-          lo[2] = simd::min(lo[2], c.z[j]), hi[2] = simd::max(hi[2], c.z[j]);
-        }
         uint32_t left = 0;
         for (int k = 0; k < K; ++k) {
           uint32_t const live = e.lanes[k] & pending[k];
           if (!live) continue;
           vfloat<A> tn;
           uint32_t const in = simd::movemask(simd::mask_from_bits<A>(live) &&
-                                             box_hit_varying(r[k], lo, hi, r[k].tmin, r[k].tmax, tn));
+                                             box_hit(r[k], lo, hi, r[k].tmin, r[k].tmax, tn));
           if (!in) {
             left |= live;
             continue;
