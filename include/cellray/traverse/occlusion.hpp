@@ -217,40 +217,46 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
         if (!isos.overlaps(sc.lo, sc.hi)) continue;  // false for NaN
         float lo[3], hi[3];
         corner_box(mesh.positions(), sc, lo, hi);
-        order_corners(mesh.vertex_count(), sc);
-        CellCorners<A, N> const c = broadcast<A, N>(mesh, sc);
-        uint32_t left = 0;
+        // The box against every packet first: most cells are met by none,
+        // and then cost no corner ordering (nor, for hexes, broadcast).
+        uint32_t in[K], any_in = 0;
         for (int k = 0; k < K; ++k) {
           uint32_t const live = e.lanes[k] & pending[k];
+          in[k] = 0;
           if (!live) continue;
           vfloat<A> tn;
-          uint32_t const in = simd::movemask(simd::mask_from_bits<A>(live) &&
-                                             box_hit(r[k], lo, hi, r[k].tmin, r[k].tmax, tn));
-          if (!in) {
-            left |= live;
-            continue;
-          }
-          if (N == 4) {
-            float const* xyz = mesh.positions();
-            for (uint32_t b = in; b; b &= b - 1) {
-              int const l = __builtin_ctz(b), at = pairs.n++;
-              for (int j = 0; j < 4; ++j) {
-                float const* q = xyz + 3 * sc.v[j];
-                pairs.x[j][at] = q[0], pairs.y[j][at] = q[1], pairs.z[j][at] = q[2];
-                pairs.s[j][at] = sc.s[j], pairs.id[j][at] = sc.key[j];
-              }
-              for (int j = 0; j < 8; ++j) pairs.ray[j][at] = rays[N == 4 ? k : 0][j][l];
-              pairs.owner[at] = uint16_t(k * W + l);
-              if (pairs.n == W) pairs.flush(pending, isos, method);
-            }
-          } else {
-            vmask<A> const lanes = simd::mask_from_bits<A>(in);
-            CellIsoHit<A> const h =
-                iso_in_window(ray_batch(r[k]), c, lanes, r[k].tmin, r[k].tmax, isos.values, isos.count, method);
-            pending[k] &= ~simd::movemask(h.hit && lanes);
-          }
-          left |= e.lanes[k] & pending[k];
+          in[k] = simd::movemask(simd::mask_from_bits<A>(live) && box_hit(r[k], lo, hi, r[k].tmin, r[k].tmax, tn));
+          any_in |= in[k];
         }
+        uint32_t left = 0;
+        if (any_in) {
+          order_corners(mesh.vertex_count(), sc);
+          if constexpr (N == 4) {
+            float const* xyz = mesh.positions();
+            for (int k = 0; k < K; ++k)
+              for (uint32_t b = in[k]; b; b &= b - 1) {
+                int const l = __builtin_ctz(b), at = pairs.n++;
+                for (int j = 0; j < 4; ++j) {
+                  float const* q = xyz + 3 * sc.v[j];
+                  pairs.x[j][at] = q[0], pairs.y[j][at] = q[1], pairs.z[j][at] = q[2];
+                  pairs.s[j][at] = sc.s[j], pairs.id[j][at] = sc.key[j];
+                }
+                for (int j = 0; j < 8; ++j) pairs.ray[j][at] = rays[k][j][l];
+                pairs.owner[at] = uint16_t(k * W + l);
+                if (pairs.n == W) pairs.flush(pending, isos, method);
+              }
+          } else {
+            CellCorners<A, N> const c = broadcast<A, N>(mesh, sc);
+            for (int k = 0; k < K; ++k) {
+              if (!in[k]) continue;
+              vmask<A> const lanes = simd::mask_from_bits<A>(in[k]);
+              CellIsoHit<A> const h =
+                  iso_in_window(ray_batch(r[k]), c, lanes, r[k].tmin, r[k].tmax, isos.values, isos.count, method);
+              pending[k] &= ~simd::movemask(h.hit && lanes);
+            }
+          }
+        }
+        for (int k = 0; k < K; ++k) left |= e.lanes[k] & pending[k];
         if (!left) break;
       }
       continue;
