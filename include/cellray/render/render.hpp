@@ -159,8 +159,8 @@ struct RenderOptions {
   /// keep the nearest hit's opacity (the reference renderer's meaning), so
   /// they always use the nearest-hit query. Default `grouped`, measured on
   /// component8 with headlight shadows + 4 AO rays per hit, 1 thread: the
-  /// secondary rays' instructions 1.61x fewer than `nearest` (callgrind,
-  /// AVX2, 256x256), CPU time 1.4-1.9x less (AVX-512, 512x512, shared
+  /// secondary rays' instructions 1.37x fewer than `nearest` (callgrind,
+  /// AVX2, 256x256), CPU time 1.2-1.8x less (AVX-512, 512x512, shared
   /// machine; bench/bench_targets prints it).
   SecondaryQuery secondary_query = SecondaryQuery::grouped;
   int hybrid_threshold = 0;  ///< 0: a quarter of the packet width
