@@ -303,6 +303,7 @@ struct Options {
   std::string out = "cellray.png";
   std::string isa = "auto";
   std::string traversal = "packet";
+  std::string secondary = "grouped";
   int threads = 0;
   int frames = 1;
   bool shadows = false;
@@ -399,6 +400,11 @@ void add_options(CLI::App& app, Options& o) {
       ->capture_default_str();
   app.add_option("--traversal", o.traversal, "Primary-ray traversal")
       ->check(CLI::IsMember({"packet", "spmd", "hybrid"}))
+      ->capture_default_str();
+  app.add_option("--secondary", o.secondary,
+                 "Shadow/AO ray query: nearest hit, any hit (occlusion), any hit with AO rays sorted by direction, "
+                 "or sorted and 4 packets per traversal (grouped; same image, fastest)")
+      ->check(CLI::IsMember({"nearest", "occlusion", "sorted", "grouped"}))
       ->capture_default_str();
   app.add_option("--threads", o.threads, "Worker threads (default: all cores)")->check(CLI::Range(1, 4096));
   app.add_option("--frames", o.frames, "Render N times and report the median time")
@@ -696,6 +702,10 @@ int run(Options const& o) {
   RenderOptions ro;
   ro.isa = isa;
   ro.traversal = traversal;
+  ro.secondary_query = o.secondary == "nearest"     ? SecondaryQuery::nearest
+                       : o.secondary == "occlusion" ? SecondaryQuery::occlusion
+                       : o.secondary == "sorted"    ? SecondaryQuery::sorted
+                                                    : SecondaryQuery::grouped;
 
   IsoParams ip;
   DvrParams dp;
@@ -797,6 +807,7 @@ int run(Options const& o) {
     j["threads"] = threads;
     j["width"] = width;
     j["height"] = height;
+    j["secondary"] = secondary_query_name(ro.secondary_query);
     j["load_ms"] = load_ms;
     j["builder"] = builder_name(bo.builder);
     j["leaf_size"] = o.leaf_size;

@@ -12,4 +12,5 @@
 #include "mesh/generate.hpp"
 #include "mesh/validate.hpp"
 #include "render/render.hpp"
+#include "traverse/occlusion_query.hpp"
 #include "traverse/queries.hpp"

@@ -6,4 +6,5 @@
 #include "../cells/queries_impl.hpp"
 #include "../mesh/cell_boxes_impl.hpp"
 #include "../traverse/queries_impl.hpp"
+#include "../traverse/occlusion_query_impl.hpp"
 #include "../render/render_impl.hpp"

@@ -18,6 +18,7 @@
 #include "../traverse/queries_impl.hpp"
 #include "../traverse/sample.hpp"
 #include "../traverse/segments.hpp"
+#include "occlusion_impl.hpp"
 #include "render.hpp"
 #include "render_common.hpp"
 
@@ -236,6 +237,10 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
                                        simd::load<A>(nrm_a[2].data())};
         float visibility[W], occlusion[W];
         for (int l = 0; l < W; ++l) visibility[l] = 1.f, occlusion[l] = 0.f;
+        // Shadow and AO rays (RenderOptions::secondary_query). Any-hit
+        // queries give the nearest hit's answer whenever only its existence
+        // matters: AO always, shadows when every surface has one opacity.
+        bool const any_hit = o.secondary_query != SecondaryQuery::nearest;
         if (hit_bits && p.shadows) {
           Ray sr[W];
           for (int l = 0; l < W; ++l) {
@@ -244,35 +249,72 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
                         h1 ? std::numeric_limits<float>::infinity() : -1.f};
           }
           RayPacket<A> const srp = load_rays<A>(sr, W);
-          SceneHit<A> const sh = nearest_hit<A>(s, srp, simd::mask_from_bits<A>(hit_bits), isos, p.roots,
-                                                o.secondary_traversal, threshold);
-          auto const sitem = simd::to_array<A>(sh.item), siso = simd::to_array<A>(sh.iso);
-          for (int l = 0; l < W; ++l)
-            if (((hit_bits >> l) & 1u) && sitem[l] >= 0) visibility[l] = 1.f - p.surfaces[size_t(siso[l])].opacity;
-        }
-        for (int k = 0; hit_bits && k < p.ao_samples; ++k) {
-          Ray ar[W];
-          for (int l = 0; l < W; ++l) {
-            bool const h1 = (hit_bits >> l) & 1u;
-            glm::vec3 d(0, 0, 1);
-            if (h1) {
-              // Cosine-weighted direction about the normal.
-              uint32_t const pix = uint32_t(py[l]) * uint32_t(cam.width) + uint32_t(px[l]);
-              float const u1 = hash01(pix, uint32_t(2 * k + 64 * layer)), u2 = hash01(pix, uint32_t(2 * k + 1 + 64 * layer));
-              float const rr = std::sqrt(u1), phi = 6.2831853f * u2;
-              glm::vec3 const n = nrm[l];
-              glm::vec3 const a = std::fabs(n.x) > 0.5f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
-              glm::vec3 const tx = glm::normalize(glm::cross(a, n)), ty = glm::cross(n, tx);
-              d = rr * std::cos(phi) * tx + rr * std::sin(phi) * ty + std::sqrt(std::max(0.f, 1.f - u1)) * n;
-            }
-            ar[l] = Ray{h1 ? pos[l] + eps * nrm[l] : cam.eye, h1 ? eps : 0.f, d, h1 ? ao_radius : -1.f};
+          bool one_opacity = true;
+          for (IsoSurface const& surf : p.surfaces) one_opacity = one_opacity && surf.opacity == p.surfaces[0].opacity;
+          if (any_hit && one_opacity) {
+            vmask<A> const lanes = simd::mask_from_bits<A>(hit_bits);
+            uint32_t const occ = simd::movemask(
+                o.secondary_query == SecondaryQuery::grouped
+                    ? scene_occluded_paired<A>(s, srp, lanes, isos, p.roots)
+                    : scene_occluded<A>(s, srp, lanes, isos, p.roots, o.secondary_traversal, threshold));
+            for (int l = 0; l < W; ++l)
+              if ((hit_bits & occ) >> l & 1u) visibility[l] = 1.f - p.surfaces[0].opacity;
+          } else {
+            SceneHit<A> const sh = nearest_hit<A>(s, srp, simd::mask_from_bits<A>(hit_bits), isos, p.roots,
+                                                  o.secondary_traversal, threshold);
+            auto const sitem = simd::to_array<A>(sh.item), siso = simd::to_array<A>(sh.iso);
+            for (int l = 0; l < W; ++l)
+              if (((hit_bits >> l) & 1u) && sitem[l] >= 0) visibility[l] = 1.f - p.surfaces[size_t(siso[l])].opacity;
           }
-          RayPacket<A> const arp = load_rays<A>(ar, W);
-          SceneHit<A> const ah = nearest_hit<A>(s, arp, simd::mask_from_bits<A>(hit_bits), isos, p.roots,
-                                                o.secondary_traversal, threshold);
-          auto const aitem = simd::to_array<A>(ah.item);
+        }
+        // AO ray k of lane l (a hit lane): cosine-weighted about the normal,
+        // directions from the pixel's hash (the same on every ISA).
+        auto const ao_ray = [&](int l, int k) {
+          uint32_t const pix = uint32_t(py[l]) * uint32_t(cam.width) + uint32_t(px[l]);
+          float const u1 = hash01(pix, uint32_t(2 * k + 64 * layer)), u2 = hash01(pix, uint32_t(2 * k + 1 + 64 * layer));
+          float const rr = std::sqrt(u1), phi = 6.2831853f * u2;
+          glm::vec3 const n = nrm[l];
+          glm::vec3 const a = std::fabs(n.x) > 0.5f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
+          glm::vec3 const tx = glm::normalize(glm::cross(a, n)), ty = glm::cross(n, tx);
+          glm::vec3 const d = rr * std::cos(phi) * tx + rr * std::sin(phi) * ty + std::sqrt(std::max(0.f, 1.f - u1)) * n;
+          return Ray{pos[l] + eps * nrm[l], eps, d, ao_radius};
+        };
+        bool const regroup = o.secondary_query == SecondaryQuery::sorted || o.secondary_query == SecondaryQuery::grouped;
+        if (hit_bits && p.ao_samples > 0 && regroup) {
+          // A chunk of samples of every hit lane, regrouped by direction.
+          constexpr int chunk = std::min(4, max_sorted_rays / W);
+          Ray ar[W * chunk];
+          uint8_t owner[W * chunk];
+          uint64_t occ[(W * chunk + 63) / 64];
+          for (int k0 = 0; k0 < p.ao_samples; k0 += chunk) {
+            int n = 0;
+            for (int k = k0; k < std::min(p.ao_samples, k0 + chunk); ++k)
+              for (uint32_t b = hit_bits; b; b &= b - 1) {
+                int const l = __builtin_ctz(b);
+                ar[n] = ao_ray(l, k), owner[n] = uint8_t(l), ++n;
+              }
+            scene_occluded_sorted<A>(s, ar, n, isos, p.roots, o.secondary_traversal, threshold,
+                                     o.secondary_query == SecondaryQuery::grouped, occ);
+            for (int i = 0; i < n; ++i)
+              if (occ[i / 64] >> (i % 64) & 1u) occlusion[owner[i]] += 1.f / float(p.ao_samples);
+          }
+        }
+        for (int k = 0; hit_bits && k < p.ao_samples && !regroup; ++k) {
+          Ray ar[W];
           for (int l = 0; l < W; ++l)
-            if (((hit_bits >> l) & 1u) && aitem[l] >= 0) occlusion[l] += 1.f / float(p.ao_samples);
+            ar[l] = (hit_bits >> l) & 1u ? ao_ray(l, k) : Ray{cam.eye, 0.f, glm::vec3(0, 0, 1), -1.f};
+          RayPacket<A> const arp = load_rays<A>(ar, W);
+          uint32_t occ = 0;
+          if (any_hit) {
+            occ = simd::movemask(scene_occluded<A>(s, arp, simd::mask_from_bits<A>(hit_bits), isos, p.roots,
+                                                   o.secondary_traversal, threshold));
+          } else {
+            SceneHit<A> const ah = nearest_hit<A>(s, arp, simd::mask_from_bits<A>(hit_bits), isos, p.roots,
+                                                  o.secondary_traversal, threshold);
+            occ = simd::movemask(simd::to_float_mask(ah.item >= vint<A>(0)));
+          }
+          for (int l = 0; l < W; ++l)
+            if ((hit_bits & occ) >> l & 1u) occlusion[l] += 1.f / float(p.ao_samples);
         }
         // Lambert + Blinn-Phong, W lanes at once.
         Vec3<A> const to_eye = vfloat<A>(-1.f) * normalized<A>(dir);

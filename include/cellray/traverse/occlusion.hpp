@@ -1,0 +1,313 @@
+#pragma once
+// Occlusion (any-hit) queries for shadow and ambient-occlusion rays, and the
+// regrouping of such rays into packets of similar direction. ISA units only.
+//
+// A first-hit query keeps searching until it has the nearest crossing; a
+// shadow or AO ray only needs to know whether any isosurface crosses its
+// segment [tmin, tmax]. The occlusion query stops a lane at its first
+// crossing found (its search interval becomes empty, so the traversal drops
+// it at the next node) and the whole packet once every lane is occluded.
+// Whether a lane is occluded is exactly whether the first-hit query would
+// report a hit for it: the same cells are tested with the same kernel
+// (iso_in_window) over the same window.
+
+#include <cstdint>
+#include <limits>
+
+#include "cell_ops.hpp"
+#include "first_hit.hpp"
+#include "packet.hpp"
+#include "traverse.hpp"
+#include "tree_view.hpp"
+
+namespace cellray {
+inline namespace CELLRAY_ISA_NS {
+
+/// Any-hit query for the traversal skeletons (traverse.hpp): which lanes'
+/// segments [r.tmin, r.tmax] cross one of `isos` in a cell of `mesh`. NaN
+/// cells are never crossed. `occluded` is the answer once the traversal
+/// returns; lanes outside the traversal's `active` mask stay false.
+template <class A, int N> struct OcclusionQuery {
+  TreeView const& tree;
+  CellMesh<N> const& mesh;
+  RayPacket<A> const& r;
+  IsoSet const& isos;
+  CellIsoOptions const& method;
+  vmask<A> occluded = vmask<A>(false);
+  /// r.tmax for lanes still searching, -inf once occluded (box tests and
+  /// stack pops then fail for them).
+  vfloat<A> t_hi_ = r.tmax;
+  uint32_t pending = 0;  ///< bits of the active lanes not yet occluded
+
+  OcclusionQuery(TreeView const& t, CellMesh<N> const& m, RayPacket<A> const& rays, IsoSet const& i,
+                 CellIsoOptions const& o, vmask<A> const& active)
+      : tree(t), mesh(m), r(rays), isos(i), method(o), pending(simd::movemask(active)) {}
+
+  bool node_relevant(float vmin, float vmax) const { return isos.overlaps(vmin, vmax); }
+  vmask<A> relevant(vfloat<A> const& vmin, vfloat<A> const& vmax) const {
+    vmask<A> m(false);
+    for (int k = 0; k < isos.count; ++k) m = m || (vfloat<A>(isos.values[k]) >= vmin && vfloat<A>(isos.values[k]) <= vmax);
+    return m;
+  }
+  bool done() const { return pending == 0; }
+  vfloat<A> t_lo() const { return r.tmin; }
+  vfloat<A> t_hi() const { return t_hi_; }
+
+  void mark(vmask<A> const& f) {
+    occluded = occluded || f;
+    t_hi_ = simd::select(f, vfloat<A>(-std::numeric_limits<float>::infinity()), t_hi_);
+    pending &= ~simd::movemask(f);
+  }
+
+  void leaf(uint64_t first, uint32_t count, vmask<A> const& m) {
+    if (!mesh.values()) return;  // NaN everywhere: no cell can hold a crossing
+    for (uint64_t i = first; i < first + count; ++i) {
+      // Lanes occluded by an earlier item of this leaf are done.
+      vmask<A> const live = m && !occluded;
+      if (simd::none(live)) return;
+      // As FirstHitQuery::leaf: values, then the cell's box in scalar, then
+      // the ordered, broadcast corners.
+      ScalarCorners<N> k;
+      read_corner_values(mesh, tree.item(i), k);
+      if (!isos.overlaps(k.lo, k.hi)) continue;  // false for NaN
+      float lo[3], hi[3];
+      corner_box(mesh.positions(), k, lo, hi);
+      vfloat<A> tn;
+      vmask<A> const lanes = live && box_hit(r, lo, hi, r.tmin, t_hi_, tn);
+      if (simd::none(lanes)) continue;
+      order_corners(mesh.vertex_count(), k);
+      CellCorners<A, N> const c = broadcast<A, N>(mesh, k);
+      CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, lanes, r.tmin, t_hi_, isos.values, isos.count, method);
+      if (simd::any(h.hit && lanes)) mark(h.hit && lanes);
+    }
+  }
+
+  void leaf_items(vint<A> const& slots, vmask<A> const& m) {
+    if (!mesh.values()) return;
+    vmask<A> const live = m && !occluded;
+    if (simd::none(live)) return;
+    vint<A> const cells = slot_cells<A>(tree, slots, live);
+    alignas(64) int32_t cell[width<A>];
+    simd::store(cell, cells);
+    uint32_t keep = 0;
+    for (uint32_t b = simd::movemask(live); b; b &= b - 1) {
+      int const l = __builtin_ctz(b);
+      ScalarCorners<N> k;
+      read_corner_values(mesh, uint64_t(uint32_t(cell[l])), k);
+      if (isos.overlaps(k.lo, k.hi)) keep |= 1u << l;  // false for NaN
+    }
+    if (!keep) return;
+    vmask<A> const lanes = simd::mask_from_bits<A>(keep);
+    CellCorners<A, N> const c = gather_corners<A, N>(mesh, cells, lanes);
+    CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, lanes, r.tmin, t_hi_, isos.values, isos.count, method);
+    if (simd::any(h.hit && lanes)) mark(h.hit && lanes);
+  }
+};
+
+/// Occlusion of W rays in one tree with the given traversal: the lanes of
+/// `active` whose segment crosses an isosurface of `mesh`.
+template <class A, int N>
+inline vmask<A> occluded_in(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A> const& r, vmask<A> active,
+                            IsoSet const& isos, CellIsoOptions const& method, Traversal how, int hybrid_threshold) {
+  OcclusionQuery<A, N> q(tree, mesh, r, isos, method, active);
+  switch (how) {
+    case Traversal::packet: traverse_packet<A>(tree, r, active, q); break;
+    case Traversal::hybrid: traverse_packet<A>(tree, r, active, q, 0, hybrid_threshold); break;
+    case Traversal::spmd: traverse_spmd<A>(tree, r, active, q); break;
+  }
+  return q.occluded && active;
+}
+
+/// (cell, ray) pairs of tets collected W at a time and clipped together,
+/// one cell and one ray per lane: a cell's box is usually met by 1 to 3 of
+/// a group's incoherent rays (2.2 of 8 lanes measured on component8's AO
+/// rays, AVX2), so clipping each packet that has a lane in it wastes most
+/// lanes. Every tet clip of occluded_packets goes through here, so a ray's
+/// answer never depends on the other rays of its group. Each lane computes
+/// what a packet clip computes for it (the same ordered corners, ray and
+/// kernel): the same answers (tests/test_traverse_occlusion.cpp,
+/// test_render_occlusion.cpp check them bit for bit).
+template <class A, int K> struct TetPairs {
+  static constexpr int W = width<A>;
+  alignas(64) float x[4][W], y[4][W], z[4][W], s[4][W];
+  alignas(64) int32_t id[4][W];
+  alignas(64) float ray[8][W];  ///< ox oy oz dx dy dz tmin tmax
+  uint16_t owner[W];            ///< packet * W + lane
+  int n = 0;
+
+  /// Clips the pairs held and clears the lanes of occluded rays in `pending`.
+  void flush(uint32_t (&pending)[K], IsoSet const& isos, CellIsoOptions const& method) {
+    uint32_t live = 0;
+    for (int i = 0; i < n; ++i) live |= (pending[owner[i] / W] >> (owner[i] % W) & 1u) << i;
+    n = 0;
+    if (!live) return;
+    CellCorners<A, 4> c;
+    for (int j = 0; j < 4; ++j) {
+      c.x[j] = simd::load<A>(x[j]), c.y[j] = simd::load<A>(y[j]), c.z[j] = simd::load<A>(z[j]);
+      c.s[j] = simd::load<A>(s[j]), c.id[j] = simd::load<A>(id[j]);
+    }
+    RayBatch<A> const r{simd::load<A>(ray[0]), simd::load<A>(ray[1]), simd::load<A>(ray[2]),
+                        simd::load<A>(ray[3]), simd::load<A>(ray[4]), simd::load<A>(ray[5])};
+    vmask<A> const lanes = simd::mask_from_bits<A>(live);
+    CellIsoHit<A> const h =
+        iso_in_window(r, c, lanes, simd::load<A>(ray[6]), simd::load<A>(ray[7]), isos.values, isos.count, method);
+    for (uint32_t b = simd::movemask(h.hit && lanes); b; b &= b - 1) {
+      int const o = owner[__builtin_ctz(b)];
+      pending[o / W] &= ~(1u << (o % W));
+    }
+  }
+};
+
+/// Occlusion of K packets of W rays in one traversal: each node is visited
+/// once for all K x W rays, each relevant cell's corners read once, and only
+/// the packets whose lanes meet the cell's box run the clip (tets: the
+/// pairs of sparse packets are clipped W at a time, TetPairs). For
+/// incoherent rays leaving one pixel block (AO), K packets of W rays visit
+/// nearly the same nodes one by one; together they pay the traversal and
+/// the corner reads once. `pending[k]`: on entry the lanes of packet k to
+/// trace, on return those not occluded (occluded = entry bits minus return
+/// bits). The answer per lane is OcclusionQuery's. No value array: nothing
+/// occluded.
+template <class A, int K, int N>
+void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A> const (&r)[K],
+                      uint32_t (&pending)[K], IsoSet const& isos, CellIsoOptions const& method) {
+  constexpr int W = width<A>;
+  if (tree.empty() || !mesh.values()) return;
+  struct Entry {
+    uint32_t node;
+    uint32_t lanes[K];  ///< lanes of each packet that entered the node's box
+  };
+  Entry stack[traversal_stack_size];
+  int sp = 0;
+  auto const enter = [&](uint32_t ni, uint32_t const* from, Entry& e) {
+    Node const& node = tree.nodes[ni];
+    uint32_t any = 0;
+    e.node = ni;
+    for (int k = 0; k < K; ++k) {
+      e.lanes[k] = 0;
+      if (!from[k]) continue;
+      vfloat<A> tn;
+      e.lanes[k] = simd::movemask(simd::mask_from_bits<A>(from[k]) &&
+                                  box_hit(r[k], node.lo, node.hi, r[k].tmin, r[k].tmax, tn));
+      any |= e.lanes[k];
+    }
+    return any != 0;
+  };
+  if (!isos.overlaps(tree.ranges[0], tree.ranges[1])) return;
+  if (enter(0, pending, stack[0])) sp = 1;
+  // Tets: the rays' components per lane, for the pairs.
+  TetPairs<A, K> pairs;
+  alignas(64) float rays[N == 4 ? K : 1][8][W];
+  if constexpr (N == 4)
+    for (int k = 0; k < K; ++k) {
+      vfloat<A> const* comp[8] = {&r[k].ox, &r[k].oy, &r[k].oz, &r[k].dx, &r[k].dy, &r[k].dz, &r[k].tmin, &r[k].tmax};
+      for (int j = 0; j < 8; ++j) simd::store(rays[k][j], *comp[j]);
+    }
+  while (sp > 0) {
+    Entry e = stack[--sp];
+    uint32_t any = 0;
+    for (int k = 0; k < K; ++k) any |= e.lanes[k] &= pending[k];  // occluded since the push: done
+    if (!any) continue;
+    Node const& node = tree.nodes[e.node];
+    if (node.is_leaf()) {
+      uint64_t const first = node.first_item();
+      for (uint64_t i = first; i < first + node.item_count(); ++i) {
+        ScalarCorners<N> sc;
+        read_corner_values(mesh, tree.item(i), sc);
+        if (!isos.overlaps(sc.lo, sc.hi)) continue;  // false for NaN
+        float lo[3], hi[3];
+        corner_box(mesh.positions(), sc, lo, hi);
+        // The box against every packet first: most cells are met by none,
+        // and then cost no corner ordering (nor, for hexes, broadcast).
+        uint32_t in[K], any_in = 0;
+        for (int k = 0; k < K; ++k) {
+          uint32_t const live = e.lanes[k] & pending[k];
+          in[k] = 0;
+          if (!live) continue;
+          vfloat<A> tn;
+          in[k] = simd::movemask(simd::mask_from_bits<A>(live) && box_hit(r[k], lo, hi, r[k].tmin, r[k].tmax, tn));
+          any_in |= in[k];
+        }
+        uint32_t left = 0;
+        if (any_in) {
+          order_corners(mesh.vertex_count(), sc);
+          if constexpr (N == 4) {
+            float const* xyz = mesh.positions();
+            for (int k = 0; k < K; ++k)
+              for (uint32_t b = in[k]; b; b &= b - 1) {
+                int const l = __builtin_ctz(b), at = pairs.n++;
+                for (int j = 0; j < 4; ++j) {
+                  float const* q = xyz + 3 * sc.v[j];
+                  pairs.x[j][at] = q[0], pairs.y[j][at] = q[1], pairs.z[j][at] = q[2];
+                  pairs.s[j][at] = sc.s[j], pairs.id[j][at] = sc.key[j];
+                }
+                for (int j = 0; j < 8; ++j) pairs.ray[j][at] = rays[k][j][l];
+                pairs.owner[at] = uint16_t(k * W + l);
+                if (pairs.n == W) pairs.flush(pending, isos, method);
+              }
+          } else {
+            CellCorners<A, N> const c = broadcast<A, N>(mesh, sc);
+            for (int k = 0; k < K; ++k) {
+              if (!in[k]) continue;
+              vmask<A> const lanes = simd::mask_from_bits<A>(in[k]);
+              CellIsoHit<A> const h =
+                  iso_in_window(ray_batch(r[k]), c, lanes, r[k].tmin, r[k].tmax, isos.values, isos.count, method);
+              pending[k] &= ~simd::movemask(h.hit && lanes);
+            }
+          }
+        }
+        for (int k = 0; k < K; ++k) left |= e.lanes[k] & pending[k];
+        if (!left) break;
+      }
+      continue;
+    }
+    uint32_t const li = node.left(), ri = node.right();
+    Entry el, er;
+    bool const hl = isos.overlaps(tree.ranges[2 * li], tree.ranges[2 * li + 1]) && enter(li, e.lanes, el);
+    bool const hr = isos.overlaps(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]) && enter(ri, e.lanes, er);
+    // The builders cap the depth at MinMaxBvh::max_depth, so the stack holds.
+    // Any order finds the same answers; the left child is taken first.
+    if (hr) stack[sp++] = er;
+    if (hl) stack[sp++] = el;
+  }
+  if constexpr (N == 4) pairs.flush(pending, isos, method);
+}
+
+/// Direction bin of a ray for regrouping incoherent rays: the cube-map face
+/// of `d` (6) and a 4x4 cell on it in Morton order, so consecutive keys are
+/// neighbouring directions. 0..95; zero directions get 0. The bin only
+/// decides which rays share a packet, never a ray's answer.
+inline uint32_t direction_bin(float dx, float dy, float dz) {
+  float const ax = dx < 0.f ? -dx : dx, ay = dy < 0.f ? -dy : dy, az = dz < 0.f ? -dz : dz;
+  int axis = 0;
+  float major = ax, u = dy, v = dz, sign = dx;
+  if (ay > major) axis = 1, major = ay, u = dz, v = dx, sign = dy;
+  if (az > major) axis = 2, major = az, u = dx, v = dy, sign = dz;
+  if (!(major > 0.f)) return 0;
+  auto const cell = [major](float x) {
+    int const q = int((x / major + 1.f) * 2.f);  // [-1, 1] -> 0..4
+    return uint32_t(q < 0 ? 0 : q > 3 ? 3 : q);
+  };
+  uint32_t const qu = cell(u), qv = cell(v);
+  uint32_t const morton = (qu & 1u) | ((qv & 1u) << 1) | ((qu & 2u) << 1) | ((qv & 2u) << 2);
+  return uint32_t(2 * axis + (sign < 0.f ? 1 : 0)) * 16u + morton;
+}
+
+/// Sorts `order[0..n)` by `key[order[i]]`, stable (insertion sort: n is a
+/// pixel block's rays, at most a few hundred, and std::sort has no place in
+/// ISA-unit code, TOOLCHAIN.md).
+inline void sort_by_key(uint16_t* order, int n, uint32_t const* key) {
+  for (int i = 1; i < n; ++i) {
+    uint16_t const x = order[i];
+    uint32_t const kx = key[x];
+    int j = i - 1;
+    while (j >= 0 && key[order[j]] > kx) {
+      order[j + 1] = order[j];
+      --j;
+    }
+    order[j + 1] = x;
+  }
+}
+
+}  // namespace CELLRAY_ISA_NS
+}  // namespace cellray
