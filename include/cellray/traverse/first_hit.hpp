@@ -22,6 +22,25 @@ template <class A> struct HitPacket {
   vint<A> iso;
 };
 
+/// Lanes of `m` whose cell (`cells`, one per lane) has a value range holding
+/// one of the isovalues, as bits: SPMD leaves test this in scalar before
+/// gathering positions, as packet leaves do, because most cells a lane
+/// reaches hold no isovalue (NaN cells never pass).
+template <class A, int N>
+CELLRAY_FORCE_INLINE uint32_t lanes_holding_iso(CellMesh<N> const& mesh, vint<A> const& cells, vmask<A> const& m,
+                                                IsoSet const& isos) {
+  alignas(64) int32_t cell[width<A>];
+  simd::store(cell, cells);
+  uint32_t keep = 0;
+  for (uint32_t b = simd::movemask(m); b; b &= b - 1) {
+    int const l = __builtin_ctz(b);
+    ScalarCorners<N> k;
+    read_corner_values(mesh, uint64_t(uint32_t(cell[l])), k);
+    if (isos.overlaps(k.lo, k.hi)) keep |= 1u << l;
+  }
+  return keep;
+}
+
 /// The first-hit query for the traversal skeletons (traverse.hpp).
 template <class A, int N> struct FirstHitQuery {
   TreeView const& tree;
@@ -77,18 +96,7 @@ template <class A, int N> struct FirstHitQuery {
   void leaf_items(vint<A> const& slots, vmask<A> const& m) {
     if (!mesh.values()) return;
     vint<A> const cells = slot_cells<A>(tree, slots, m);
-    // Each lane's value range first, as packet leaves do: most cells a lane
-    // reaches hold no isovalue, and they then cost no position gathers and
-    // no clip.
-    alignas(64) int32_t cell[width<A>];
-    simd::store(cell, cells);
-    uint32_t keep = 0;
-    for (uint32_t b = simd::movemask(m); b; b &= b - 1) {
-      int const l = __builtin_ctz(b);
-      ScalarCorners<N> k;
-      read_corner_values(mesh, uint64_t(uint32_t(cell[l])), k);
-      if (isos.overlaps(k.lo, k.hi)) keep |= 1u << l;  // false for NaN
-    }
+    uint32_t const keep = lanes_holding_iso<A, N>(mesh, cells, m, isos);
     if (!keep) return;
     vmask<A> const live = simd::mask_from_bits<A>(keep);
     cell_hits(gather_corners<A, N>(mesh, cells, live), live, slots);

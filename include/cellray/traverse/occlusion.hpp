@@ -87,15 +87,7 @@ template <class A, int N> struct OcclusionQuery {
     vmask<A> const live = m && !occluded;
     if (simd::none(live)) return;
     vint<A> const cells = slot_cells<A>(tree, slots, live);
-    alignas(64) int32_t cell[width<A>];
-    simd::store(cell, cells);
-    uint32_t keep = 0;
-    for (uint32_t b = simd::movemask(live); b; b &= b - 1) {
-      int const l = __builtin_ctz(b);
-      ScalarCorners<N> k;
-      read_corner_values(mesh, uint64_t(uint32_t(cell[l])), k);
-      if (isos.overlaps(k.lo, k.hi)) keep |= 1u << l;  // false for NaN
-    }
+    uint32_t const keep = lanes_holding_iso<A, N>(mesh, cells, live, isos);
     if (!keep) return;
     vmask<A> const lanes = simd::mask_from_bits<A>(keep);
     CellCorners<A, N> const c = gather_corners<A, N>(mesh, cells, lanes);
