@@ -160,8 +160,9 @@ struct RenderOptions {
   /// they always use the nearest-hit query. Default `grouped`, measured on
   /// component8 with headlight shadows + 4 AO rays per hit, 1 thread: the
   /// secondary rays' instructions 1.37x fewer than `nearest` (callgrind,
-  /// AVX2, 256x256), CPU time 1.2-1.8x less (AVX-512, 512x512, shared
-  /// machine; bench/bench_targets prints it).
+  /// AVX2, 256x256), but they wait on memory: whole frames with shadows and
+  /// 4 AO rays ~1.1x faster on an idle machine (AVX-512, 512x512; README
+  /// Performance; bench/bench_targets prints the secondary time per query).
   SecondaryQuery secondary_query = SecondaryQuery::grouped;
   int hybrid_threshold = 0;  ///< 0: a quarter of the packet width
   int tile_size = 32;        ///< pixels per tile side, scheduled on TBB
