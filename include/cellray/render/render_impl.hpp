@@ -180,6 +180,9 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
   // constant per cell; hexes: at the hit's coordinates). Central differences
   // locate each hit again, per lane (normal_at).
   bool const query_gradient = p.normals == GradientMethod::analytic;
+  // Any-hit shadow rays need one opacity for every surface (see the shadow block).
+  bool one_opacity = true;
+  for (IsoSurface const& surf : p.surfaces) one_opacity = one_opacity && surf.opacity == p.surfaces[0].opacity;
   vfloat<A> const zero(0.f), one(1.f);
   Vec3<A> const eye{vfloat<A>(cam.eye.x), vfloat<A>(cam.eye.y), vfloat<A>(cam.eye.z)};
 
@@ -217,13 +220,14 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
         auto const iso = simd::to_array<A>(h.iso), item = simd::to_array<A>(h.item), part = simd::to_array<A>(h.part);
         glm::vec3 pos[W], nrm[W], ldir[W];
         alignas(64) float base_r[W] = {}, base_g[W] = {}, base_b[W] = {}, opacity[W] = {};
+        std::array<float, W> dir_a[3];
+        if (!query_gradient) dir_a[0] = simd::to_array<A>(dir.x), dir_a[1] = simd::to_array<A>(dir.y),
+                             dir_a[2] = simd::to_array<A>(dir.z);
         for (uint32_t bits = hit_bits; bits; bits &= bits - 1) {
           int const l = __builtin_ctz(bits);
           pos[l] = lane_vec<W>(pos_a, l);
           ldir[l] = lane_vec<W>(ldir_a, l);
           if (!query_gradient) {
-            std::array<float, W> const dir_a[3] = {simd::to_array<A>(dir.x), simd::to_array<A>(dir.y),
-                                                   simd::to_array<A>(dir.z)};
             glm::vec3 const n = normal_at(s.parts[size_t(part[l])], uint64_t(item[l]), pos[l], lane_vec<W>(dir_a, l),
                                           p.normals);
             nrm_a[0][size_t(l)] = n.x, nrm_a[1][size_t(l)] = n.y, nrm_a[2][size_t(l)] = n.z;
@@ -249,8 +253,6 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
                         h1 ? std::numeric_limits<float>::infinity() : -1.f};
           }
           RayPacket<A> const srp = load_rays<A>(sr, W);
-          bool one_opacity = true;
-          for (IsoSurface const& surf : p.surfaces) one_opacity = one_opacity && surf.opacity == p.surfaces[0].opacity;
           if (any_hit && one_opacity) {
             vmask<A> const lanes = simd::mask_from_bits<A>(hit_bits);
             uint32_t const occ = simd::movemask(
