@@ -93,15 +93,9 @@ bool reference_occluded(ref_render::Setup const& s, Ray const& r, IsoParams cons
   return inside;
 }
 
-/// `max_wrong`: answers allowed to differ from the reference. Zero for
-/// tets. Hexes: the float cubic through a cell can miss a crossing the
-/// double reference finds (clang 14's AVX-512 build at -O1 misses one
-/// isolated crossing, t = 0.109 of an AO-like ray on the jittered hexes,
-/// that g++'s finds); the nearest-hit query misses it too, which the check
-/// against first_hits below still demands exactly.
 template <int N>
 void check_occlusion(std::string const& name, CellMesh<N> const& mesh, std::vector<float> const& isos,
-                     std::vector<Ray> const& extra, int max_wrong = 0) {
+                     std::vector<Ray> const& extra) {
   MinMaxBvh const bvh = build_minmax_bvh(mesh);
   TreeView const tree(bvh);
   IsoQuery q;
@@ -143,7 +137,7 @@ void check_occlusion(std::string const& name, CellMesh<N> const& mesh, std::vect
         if (ref[i] >= 0 && occ[i] != ref[i]) ++wrong;
         if (occ[i] != uint8_t(nearest[i].hit())) ++unlike_nearest;
       }
-      CHECK(wrong <= max_wrong);
+      CHECK(wrong == 0);
       // The same cell code on the same data (grouped packets: one cell and
       // one ray per lane, TetPairs): the nearest-hit query's answers.
       CHECK(unlike_nearest == 0);
@@ -160,13 +154,13 @@ TEST_CASE("occlusion: packet, SPMD, hybrid and grouped packets match the referen
   }
   SECTION("jittered hexes") {
     auto g = generate_hexes(9 * 9 * 9, 3);
-    check_occlusion("hexes", g.mesh(), {0.45f}, {}, 2);  // of ~645 rays
+    check_occlusion("hexes", g.mesh(), {0.45f}, {});
   }
   SECTION("regular lattices: rays along shared edges and grazing faces") {
     auto t = generate_tets(6 * 8 * 8 * 8, 1, 0.f);
     check_occlusion("regular tets", t.mesh(), {0.4f}, lattice_rays(8));
     auto h = generate_hexes(8 * 8 * 8, 1, 0.f);
-    check_occlusion("regular hexes", h.mesh(), {0.4f}, lattice_rays(8), 2);
+    check_occlusion("regular hexes", h.mesh(), {0.4f}, lattice_rays(8));
   }
 }
 

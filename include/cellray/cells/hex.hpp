@@ -474,16 +474,19 @@ template <class A> inline Cubic<A> cubic_through(vfloat<A> f0, vfloat<A> f1, vfl
   return {f0, vfloat<A>(3.f) * d1 - vfloat<A>(1.5f) * d2 + d3, vfloat<A>(4.5f) * (d2 - d3), vfloat<A>(4.5f) * d3};
 }
 
-/// The first crossing (f >= 0 predicate change) of the cubic in [0,1], in
-/// `lanes`, with the values at 0 and 1 given exactly (canonical face
-/// values). Splits [0,1] at the cubic's extrema (Marmitt et al. 2004) into monotone pieces,
-/// takes the first piece whose ends differ, and polishes there with a
+/// The first crossing (f >= 0 predicate change) of the cubic in [start,1]
+/// (start per lane, in [0,1)), in `lanes`, with the values at 0 and 1 given
+/// exactly (canonical face values; at start > 0 the cubic's own value, so
+/// its roots before start stay consistently excluded). Splits [start,1] at
+/// the cubic's extrema (Marmitt et al. 2004) into monotone pieces, takes the
+/// first piece whose ends differ, and polishes there with a
 /// bisection-safeguarded Newton iteration. `lo_out`/`hi_out` return that
 /// piece (for world-space refinement).
 template <class A>
 inline vfloat<A> first_cubic_root(Cubic<A> const& p, vfloat<A> const& f0, vfloat<A> const& f3, vmask<A> const& lanes,
-                                  vmask<A>& found, vfloat<A>& lo_out, vfloat<A>& hi_out) {
+                                  vfloat<A> const& start, vmask<A>& found, vfloat<A>& lo_out, vfloat<A>& hi_out) {
   vfloat<A> const zero(0.f), one(1.f);
+  vfloat<A> const fs = simd::select(start > zero, p(start), f0);
   // Extrema: roots of 3 c3 x^2 + 2 c2 x + c1, stable form.
   vfloat<A> const A2 = vfloat<A>(3.f) * p.c3, B2 = vfloat<A>(2.f) * p.c2;
   vfloat<A> const disc = B2 * B2 - vfloat<A>(4.f) * A2 * p.c1;
@@ -495,17 +498,18 @@ inline vfloat<A> first_cubic_root(Cubic<A> const& p, vfloat<A> const& f0, vfloat
   // Invalid roots (no real extrema, 0/0) collapse onto x = 1.
   r1 = simd::select(has && !simd::isnan(r1), clamp01<A>(r1), one);
   r2 = simd::select(has && !simd::isnan(r2) && !(A2 == zero), clamp01<A>(r2), one);
-  vfloat<A> const e1 = simd::min(r1, r2), e2 = simd::max(r1, r2);
+  // Extrema before start collapse onto it (pieces of zero length).
+  vfloat<A> const e1 = simd::max(simd::min(r1, r2), start), e2 = simd::max(simd::max(r1, r2), start);
   auto val = [&](vfloat<A> const& x) {
-    return simd::select(x <= zero, f0, simd::select(x >= one, f3, p(x)));
+    return simd::select(x <= start, fs, simd::select(x >= one, f3, p(x)));
   };
   vfloat<A> const g1 = val(e1), g2 = val(e2);
-  vmask<A> const a0 = f0 >= zero, a1 = g1 >= zero, a2 = g2 >= zero, a3 = f3 >= zero;
+  vmask<A> const a0 = fs >= zero, a1 = g1 >= zero, a2 = g2 >= zero, a3 = f3 >= zero;
   vmask<A> const p0 = mask_xor<A>(a0, a1), p1 = mask_xor<A>(a1, a2), p2 = mask_xor<A>(a2, a3);
   found = lanes && (p0 || p1 || p2);
-  vfloat<A> lo = simd::select(p0, zero, simd::select(p1, e1, e2));
+  vfloat<A> lo = simd::select(p0, start, simd::select(p1, e1, e2));
   vfloat<A> hi = simd::select(p0, e1, simd::select(p1, e2, one));
-  vfloat<A> flo = simd::select(p0, f0, simd::select(p1, g1, g2));
+  vfloat<A> flo = simd::select(p0, fs, simd::select(p1, g1, g2));
   vfloat<A> fhi = simd::select(p0, g1, simd::select(p1, g2, f3));
   lo_out = lo, hi_out = hi;
   // Start at the secant point, then Newton kept inside the bracket.
@@ -552,15 +556,28 @@ inline vfloat<A> first_cubic_root(Cubic<A> const& p, vfloat<A> const& f0, vfloat
 /// receives the trilinear coordinates of the hit in hit lanes (for the
 /// shading gradient; other lanes unchanged): exact for parallelepipeds, the
 /// last refinement's inversion (one Newton step behind t) otherwise.
+/// `t_from` (per lane), if given: crossings before it are ignored and the
+/// search starts there, so a window that starts inside the cell (a ray
+/// leaving a surface, or continuing behind a transparent one) still finds a
+/// second crossing of the same isovalue in that cell; hits have t >= t_from.
 template <class A>
 inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip, CellCorners<A, 8> const& c,
-                                  float const* isovalues, int count, int refine_steps = 2, Vec3<A>* param = nullptr) {
+                                  float const* isovalues, int count, int refine_steps = 2, Vec3<A>* param = nullptr,
+                                  vfloat<A> const* t_from = nullptr) {
   constexpr float inf = std::numeric_limits<float>::infinity();
   CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
   vmask<A> const valid = clip.hit && !has_nan_value(c);
   if (simd::none(valid)) return h;
   Vec3<A> const du = clip.u_out - clip.u_in;
   vfloat<A> const dt = clip.t_out - clip.t_in;
+  // Where the search starts, as lambda on the clip's segment: 0 unless the
+  // window starts inside the cell (then t_from itself is the lower bound).
+  vfloat<A> start(0.f), t_floor(-inf);
+  if (t_from) {
+    vmask<A> const inner = valid && *t_from > clip.t_in && dt > vfloat<A>(0.f);
+    start = simd::select(inner, simd::min((*t_from - clip.t_in) / dt, vfloat<A>(1.f)), start);
+    t_floor = simd::select(inner, *t_from, t_floor);
+  }
   Vec3<A> const o = ray.origin(), d = ray.dir();
   // Parallelepipeds: the parametric segment between the entry and exit
   // coordinates *is* the ray, so the cubic through its values is the exact
@@ -585,9 +602,9 @@ inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip
     detail::Cubic<A> const cubic = detail::cubic_through<A>(f0, v1 - iso, v2 - iso, f3);
     vfloat<A> lo, hi;
     vmask<A> found;
-    vfloat<A> const lam = detail::first_cubic_root(cubic, f0, f3, valid, found, lo, hi);
+    vfloat<A> const lam = detail::first_cubic_root(cubic, f0, f3, valid, start, found, lo, hi);
     if (simd::none(found)) continue;
-    vfloat<A> t = clip.t_in + lam * dt;
+    vfloat<A> t = simd::max(clip.t_in + lam * dt, t_floor);
     Vec3<A> u = clip.u_in + lam * du;
     vmask<A> const refine = found && general;
     if (refine_steps > 0 && simd::any(refine)) {
@@ -604,7 +621,7 @@ inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip
         // rounding, so a root at the face can land a hair outside) stops at
         // that end instead of being dropped.
         vmask<A> const take = refine && gok && simd::abs(nt) < vfloat<A>(inf);  // false for NaN
-        t = simd::select(take, simd::min(simd::max(nt, t_lo), t_hi), t);
+        t = simd::select(take, simd::max(simd::min(simd::max(nt, t_lo), t_hi), t_floor), t);
       }
     }
     // Nearest wins, ties keep the lower index (detail::keep_nearest's rule).

@@ -25,8 +25,10 @@ template <class A> struct CellOps<A, 4> {
     return clip_tet_window(r, c, lanes, t_lo, t_hi);
   }
   /// `param` is for hexes (hit coordinates); tets leave it alone.
+  /// `t_from` is for hexes too: a tet holds one crossing per isovalue.
   static CellIsoHit<A> iso(RayBatch<A> const& r, Clip const& k, CellCorners<A, 4> const& c, float const* isos,
-                           int count, CellIsoOptions const& o, Vec3<A>* /*param*/ = nullptr) {
+                           int count, CellIsoOptions const& o, Vec3<A>* /*param*/ = nullptr,
+                           vfloat<A> const* /*t_from*/ = nullptr) {
     return o.method == CellIsoMethod::exact ? iso_root_tet(k, c, isos, count)
                                             : iso_root_tet_neubauer(r, k, c, isos, count, o.neubauer_steps);
   }
@@ -45,9 +47,12 @@ template <class A> struct CellOps<A, 8> {
   }
   /// `param`, if given, receives the trilinear coordinates of the hit in
   /// hit lanes (iso_root_hex's; for Neubauer one inversion at the root).
+  /// `t_from`: the exact method's search start (see iso_root_hex);
+  /// Neubauer, which misses pairs of crossings in a cell anyway, ignores it.
   static CellIsoHit<A> iso(RayBatch<A> const& r, Clip const& k, CellCorners<A, 8> const& c, float const* isos,
-                           int count, CellIsoOptions const& o, Vec3<A>* param = nullptr) {
-    if (o.method == CellIsoMethod::exact) return iso_root_hex(r, k, c, isos, count, o.refine_steps, param);
+                           int count, CellIsoOptions const& o, Vec3<A>* param = nullptr,
+                           vfloat<A> const* t_from = nullptr) {
+    if (o.method == CellIsoMethod::exact) return iso_root_hex(r, k, c, isos, count, o.refine_steps, param, t_from);
     CellIsoHit<A> const h = iso_root_hex_neubauer(r, k, c, isos, count, o.neubauer_steps);
     if (param && simd::any(h.hit)) {
       vfloat<A> const dt = k.t_out - k.t_in;
@@ -84,9 +89,11 @@ CELLRAY_FORCE_INLINE vmask<A> cell_box_hit(RayPacket<A> const& r, CellCorners<A,
 
 /// Nearest crossing of any isovalue with t in [t_lo, t_hi] (per lane) in one
 /// cell per lane. When the cell's interval pokes out of the window (a ray
-/// continuing behind a transparent surface, or the current nearest hit), the
-/// isovalues are tried one by one so a crossing before t_lo cannot hide a
-/// later one of another isovalue.
+/// continuing behind a transparent surface, a shadow or AO ray leaving a
+/// surface, or the current nearest hit), a crossing before t_lo must not hide
+/// a later one: the hex exact method searches from t_lo (a hex can hold
+/// several crossings of one isovalue), the others try the isovalues one by
+/// one (a tet holds one crossing per isovalue).
 /// `param` (hexes): the hit's trilinear coordinates in hit lanes, see
 /// CellOps<A, 8>::iso.
 template <class A, int N>
@@ -99,6 +106,15 @@ inline CellIsoHit<A> iso_in_window(RayBatch<A> const& r, CellCorners<A, N> const
   CellIsoHit<A> best{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
   if (simd::none(k.hit)) return best;
   if (simd::all(!k.hit || (k.t_in >= t_lo && k.t_out <= t_hi))) return Ops::iso(r, k, c, isos, count, o, param);
+  if (N == 8 && o.method == CellIsoMethod::exact) {
+    Vec3<A> u = param ? *param : Vec3<A>{};
+    CellIsoHit<A> h = Ops::iso(r, k, c, isos, count, o, param ? &u : nullptr, &t_lo);
+    h.hit = h.hit && h.t >= t_lo && h.t <= t_hi;
+    if (param) *param = select<A>(h.hit, u, *param);
+    h.t = simd::select(h.hit, h.t, best.t);
+    h.iso_index = simd::select(simd::to_int_mask(h.hit), h.iso_index, best.iso_index);
+    return h;
+  }
   for (int i = 0; i < count; ++i) {
     Vec3<A> u = param ? *param : Vec3<A>{};
     CellIsoHit<A> const h = Ops::iso(r, k, c, isos + i, 1, o, param ? &u : nullptr);
