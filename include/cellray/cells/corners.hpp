@@ -142,18 +142,32 @@ template <int N> struct ScalarCorners {
 
 /// Reads ids and values of `cell` (not yet ordered). No range check.
 template <int N> CELLRAY_FORCE_INLINE void read_corner_values(CellMesh<N> const& mesh, uint64_t cell, ScalarCorners<N>& k) {
+  constexpr float qnan = std::numeric_limits<float>::quiet_NaN();
   float const* val = mesh.values();
+  // Index width and value presence decided once per cell, not per corner
+  // (leaves call this for every item they reach).
+  if (mesh.has_32bit_indices()) {
+    uint32_t const* ix = mesh.indices32() + cell * uint64_t(N);
+    for (int i = 0; i < N; ++i) k.v[i] = ix[i];
+  } else {
+    uint64_t const* ix = mesh.indices64() + cell * uint64_t(N);
+    for (int i = 0; i < N; ++i) k.v[i] = ix[i];
+  }
+  if (!val) {
+    for (int i = 0; i < N; ++i) k.s[i] = qnan;
+    k.lo = k.hi = qnan;
+    return;
+  }
   float lo = std::numeric_limits<float>::infinity(), hi = -lo;
   bool nan = false;
   for (int i = 0; i < N; ++i) {
-    k.v[i] = mesh.vertex(cell, i);
-    k.s[i] = val ? val[k.v[i]] : std::numeric_limits<float>::quiet_NaN();
+    k.s[i] = val[k.v[i]];
     nan = nan || !(k.s[i] == k.s[i]);
     lo = std::min(lo, k.s[i]);
     hi = std::max(hi, k.s[i]);
   }
-  k.lo = nan ? std::numeric_limits<float>::quiet_NaN() : lo;
-  k.hi = nan ? std::numeric_limits<float>::quiet_NaN() : hi;
+  k.lo = nan ? qnan : lo;
+  k.hi = nan ? qnan : hi;
 }
 
 /// Bounding box of the corners `k` (positions `xyz`, 3 floats per vertex),

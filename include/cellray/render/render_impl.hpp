@@ -181,6 +181,7 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
   // locate each hit again, per lane (normal_at).
   bool const query_gradient = p.normals == GradientMethod::analytic;
   // Any-hit shadow rays need one opacity for every surface (see the shadow block).
+  bool const secondary = p.shadows || p.ao_samples > 0;
   bool one_opacity = true;
   for (IsoSurface const& surf : p.surfaces) one_opacity = one_opacity && surf.opacity == p.surfaces[0].opacity;
   vfloat<A> const zero(0.f), one(1.f);
@@ -225,14 +226,13 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
                              dir_a[2] = simd::to_array<A>(dir.z);
         for (uint32_t bits = hit_bits; bits; bits &= bits - 1) {
           int const l = __builtin_ctz(bits);
-          pos[l] = lane_vec<W>(pos_a, l);
-          ldir[l] = lane_vec<W>(ldir_a, l);
           if (!query_gradient) {
-            glm::vec3 const n = normal_at(s.parts[size_t(part[l])], uint64_t(item[l]), pos[l], lane_vec<W>(dir_a, l),
-                                          p.normals);
+            glm::vec3 const n = normal_at(s.parts[size_t(part[l])], uint64_t(item[l]), lane_vec<W>(pos_a, l),
+                                          lane_vec<W>(dir_a, l), p.normals);
             nrm_a[0][size_t(l)] = n.x, nrm_a[1][size_t(l)] = n.y, nrm_a[2][size_t(l)] = n.z;
           }
-          nrm[l] = lane_vec<W>(nrm_a, l);
+          // Per-lane copies only for the shadow and AO rays below.
+          if (secondary) pos[l] = lane_vec<W>(pos_a, l), ldir[l] = lane_vec<W>(ldir_a, l), nrm[l] = lane_vec<W>(nrm_a, l);
           IsoSurface const& surf = p.surfaces[size_t(iso[l])];
           base_r[l] = surf.color.r, base_g[l] = surf.color.g, base_b[l] = surf.color.b;
           opacity[l] = surf.opacity;

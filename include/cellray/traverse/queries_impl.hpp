@@ -42,6 +42,11 @@ void first_hits(TreeView const& tree, CellMesh<N> const& mesh, Ray const* rays, 
     RayPacket<A> const r = load_rays<A>(rays + base, cnt);
     vmask<A> const active = simd::mask_from_bits<A>(cnt >= 32 ? ~0u : (1u << cnt) - 1u) && r.tmin <= r.tmax;
     FirstHitQuery<A, N> fq{tree, mesh, r, q.isos, q.method, {r.tmax, vint<A>(-1), vint<A>(-1)}};
+    // Analytic normals come with the hits, as in the renderer: the query
+    // keeps the gradient of each hit cell from the corners it loaded (no
+    // second corner load and, for hexes, no second point location per ray).
+    bool const query_gradient = q.normals == GradientMethod::analytic;
+    fq.want_gradient = query_gradient;
     switch (q.traversal) {
       case Traversal::packet: traverse_packet<A>(tree, r, active, fq); break;
       case Traversal::hybrid: traverse_packet<A>(tree, r, active, fq, 0, threshold); break;
@@ -53,13 +58,20 @@ void first_hits(TreeView const& tree, CellMesh<N> const& mesh, Ray const* rays, 
     simd::store(t, hit.t);
     simd::store(item, hit.item);
     simd::store(iso, hit.iso);
+    alignas(64) float nrm[3][W];
+    if (query_gradient) {
+      Vec3<A> const dir = ray_batch(r).dir();
+      Vec3<A> const nv = face_forward<A>(shading_normal<A>(fq.grad, dir), dir);
+      simd::store(nrm[0], nv.x), simd::store(nrm[1], nv.y), simd::store(nrm[2], nv.z);
+    }
     for (int l = 0; l < cnt; ++l) {
       SurfaceHit h;
       if (item[l] >= 0) {
         h.t = t[l];
         h.iso = iso[l];
         h.cell = tree.item(uint64_t(item[l]));
-        h.normal = hit_normal(mesh, h.cell, rays[base + uint64_t(l)], t[l], q.normals);
+        h.normal = query_gradient ? glm::vec3(nrm[0][l], nrm[1][l], nrm[2][l])
+                                  : hit_normal(mesh, h.cell, rays[base + uint64_t(l)], t[l], q.normals);
       }
       out[base + uint64_t(l)] = h;
     }
