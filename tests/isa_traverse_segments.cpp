@@ -9,6 +9,8 @@
 
 namespace cellray::test {
 
+static_assert(probe_max_segments == max_segments && max_segments <= probe_capacity);
+
 template <class Arch>
 void SegmentProbe<Arch>::run(TetMesh const& mesh, MinMaxBvh const& bvh, ValueWindows const& windows, Ray const* rays,
                              int n, int how, bool gradients, SegmentProbeOut* out) {

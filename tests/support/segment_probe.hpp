@@ -13,6 +13,9 @@ namespace cellray::test {
 
 /// Capacity of a ray's list in SegmentProbeOut (at least max_segments).
 inline constexpr int probe_capacity = 64;
+/// cellray::max_segments (segments.hpp is for ISA units only; the probe's
+/// unit checks the two agree).
+inline constexpr int probe_max_segments = 48;
 
 /// One ray's answer: its segments front to back and the list's cut.
 struct SegmentProbeOut {
