@@ -29,7 +29,6 @@
 
 #include "cell_ops.hpp"
 #include "sample.hpp"
-#include "tet_pairs.hpp"
 #include "traverse.hpp"
 #include "tree_view.hpp"
 
@@ -77,16 +76,11 @@ template <class A, int N> struct SegmentQuery {
   FieldSegment seg[W][max_segments];
   float key[W][max_segments];  ///< seg[l][i].s.t_in, contiguous for the farthest-segment scan
   uint8_t order[W][max_segments];  ///< after sort(): seg[l][order[l][i]] front to back
-  /// Tets: (cell, lane) pairs of packet leaves awaiting their clip (flush_pairs).
-  PacketTetPairs<A> pairs;
-  /// The packet's rays and windows per lane (ox oy oz dx dy dz lo), for pair clips.
-  alignas(64) float lane_ray[7][W];
 
   SegmentQuery(TreeView const& t, CellMesh<N> const& m, RayPacket<A> const& rays, ValueWindows const& w,
                vfloat<A> const& t_lo, vfloat<A> const& t_hi, bool want_gradients = false)
       : tree_(&t), mesh_(&m), r(rays), windows(w), lo(t_lo), hi(t_hi), limit(t_hi), gradients(want_gradients) {
     for (int l = 0; l < W; ++l) count[l] = 0, cut[l] = std::numeric_limits<float>::infinity();
-    store_lanes();
   }
 
   /// Another packet, window or part: what the constructor does, without a
@@ -95,12 +89,6 @@ template <class A, int N> struct SegmentQuery {
              vfloat<A> const& t_hi) {
     tree_ = &t, mesh_ = &m, r = rays, lo = t_lo, hi = t_hi, limit = t_hi;
     for (int l = 0; l < W; ++l) count[l] = 0, cut[l] = std::numeric_limits<float>::infinity();
-    pairs.n = 0;
-    store_lanes();
-  }
-  void store_lanes() {
-    vfloat<A> const* comp[7] = {&r.ox, &r.oy, &r.oz, &r.dx, &r.dy, &r.dz, &lo};
-    for (int j = 0; j < 7; ++j) simd::store(lane_ray[j], *comp[j]);
   }
   TreeView const& tree() const { return *tree_; }
   CellMesh<N> const& mesh() const { return *mesh_; }
@@ -221,50 +209,7 @@ template <class A, int N> struct SegmentQuery {
   // cell, not only per node. Packet leaves test it on the scalar values
   // before loading positions, then cull on the cell's box (most cells of a
   // leaf the packet reaches are missed by every lane).
-  //
-  // Tets go on to pairs: the cell's box is tested in scalar against the
-  // packet, and each lane that meets it adds a (cell, lane) pair; the pairs
-  // are clipped W at a time (flush_pairs), not the packet per cell.
   void leaf(uint64_t first, uint32_t n, vmask<A> const& m) {
-    if constexpr (N == 4) {
-      // The leaf's reads in stages, each over all its items, so their cache
-      // misses overlap instead of queueing behind one another: index rows
-      // (prefetched), values (the range filter), positions of the cells
-      // that pass (prefetched), then the box tests and pairs.
-      float const* xyz = mesh_->positions();
-      constexpr int chunk = 8;
-      for (uint64_t base = first; base < first + n; base += chunk) {
-        int const cnt = int(std::min<uint64_t>(chunk, first + n - base));
-        uint64_t cells[chunk];
-        for (int j = 0; j < cnt; ++j) {
-          cells[j] = tree_->item(base + uint64_t(j));
-          if (mesh_->has_32bit_indices()) __builtin_prefetch(mesh_->indices32() + 4 * cells[j]);
-          else __builtin_prefetch(mesh_->indices64() + 4 * cells[j]);
-        }
-        ScalarCorners<4> k[chunk];
-        uint32_t visible = 0;
-        for (int j = 0; j < cnt; ++j) {
-          read_corner_values(*mesh_, cells[j], k[j]);
-          if (!windows.overlaps(k[j].lo, k[j].hi)) continue;  // false for NaN
-          visible |= 1u << j;
-          for (int c = 0; c < 4; ++c) __builtin_prefetch(xyz + 3 * k[j].v[c]);
-        }
-        for (uint32_t vb = visible; vb; vb &= vb - 1) {
-          int const j = __builtin_ctz(vb);
-          float blo[3], bhi[3];
-          corner_box(xyz, k[j], blo, bhi);  // the same floats as cell_box_hit's box over broadcast corners
-          vfloat<A> tn;
-          uint32_t const in = simd::movemask(m && box_hit(r, blo, bhi, lo, t_hi(), tn));
-          if (!in) continue;
-          order_corners(mesh_->vertex_count(), k[j]);
-          for (uint32_t b = in; b; b &= b - 1) {
-            pairs.push(xyz, k[j], __builtin_ctz(b), cells[j]);
-            if (pairs.full()) flush_pairs();
-          }
-        }
-      }
-      return;
-    }
     for (uint64_t i = first; i < first + n; ++i) {
       uint64_t const cell = tree_->item(i);
       ScalarCorners<N> k;
@@ -283,51 +228,6 @@ template <class A, int N> struct SegmentQuery {
     for (int i = 1; i < N; ++i) vmin = simd::min(vmin, c.s[i]), vmax = simd::max(vmax, c.s[i]);
     vmask<A> const visible = m && windows_overlap<A>(windows, vmin, vmax);
     if (simd::any(visible)) visit(c, visible, cv);
-  }
-
-  /// Clips the pending tet pairs, one per lane, and keeps their segments
-  /// as visit keeps a packet's: per pair the same corners, ray and window a
-  /// packet clip has in that lane, so the same floats. The window's end is
-  /// the lane's limit now, which may have fallen since the pair was added:
-  /// a segment entered beyond it fails slot() either way. Tets only; call
-  /// after the traversal (collect_segments does) before reading the lists.
-  void flush_pairs() {
-    if constexpr (N == 4) {
-      if (!pairs.n) return;
-      vmask<A> const live = pairs.live();
-      pairs.n = 0;
-      CellCorners<A, 4> const c = pairs.corners();
-      RayBatch<A> const ray{pairs.of_lane(lane_ray[0]), pairs.of_lane(lane_ray[1]), pairs.of_lane(lane_ray[2]),
-                            pairs.of_lane(lane_ray[3]), pairs.of_lane(lane_ray[4]), pairs.of_lane(lane_ray[5])};
-      alignas(64) float lim[W];
-      simd::store(lim, limit);
-      CellClip<A> const k = clip_tet_window(ray, c, live, pairs.of_lane(lane_ray[6]), pairs.of_lane(lim));
-      uint32_t const mb = simd::movemask(k.hit && !has_nan_value(c));
-      if (!mb) return;
-      auto const tin = simd::to_array<A>(k.t_in), tout = simd::to_array<A>(k.t_out);
-      auto const sin = simd::to_array<A>(k.s_in), sout = simd::to_array<A>(k.s_out);
-      std::array<float, W> g[3];
-      if (gradients) {
-        Vec3<A> const gv = gradient_tet(c);
-        g[0] = simd::to_array<A>(gv.x), g[1] = simd::to_array<A>(gv.y), g[2] = simd::to_array<A>(gv.z);
-      }
-      bool cut_fell = false;
-      for (uint32_t b = mb; b; b &= b - 1) {
-        int const p = __builtin_ctz(b), l = pairs.lane[p];
-        float const vmin = std::min(sin[p], sout[p]), vmax = std::max(sin[p], sout[p]);
-        if (!windows.overlaps(vmin, vmax)) continue;  // linear along the ray: transparent throughout
-        float const before = cut[l];
-        int const i = slot(l, tin[p]);
-        cut_fell = cut_fell || cut[l] < before;
-        if (i < 0) continue;
-        FieldSegment& fs = seg[l][i];
-        fs.s = CellSegment{tin[p], tout[p], sin[p], sout[p], 0, uint64_t(uint32_t(pairs.cell[p]))};
-        fs.value[0] = sin[p], fs.value[1] = sout[p] - sin[p], fs.value[2] = fs.value[3] = 0.f;
-        if (gradients)
-          for (int a = 0; a < 3; ++a) fs.gradient[a][0] = g[a][size_t(p)], fs.gradient[a][1] = fs.gradient[a][2] = fs.gradient[a][3] = 0.f;
-      }
-      if (cut_fell) limit = simd::min(hi, simd::load<A>(cut));
-    }
   }
 
   /// Orders each lane's segments front to back: seg[l][order[l][i]] is the
@@ -353,7 +253,6 @@ inline void collect_segments(SegmentQuery<A, N>& q, vmask<A> const& active, Trav
     case Traversal::hybrid: traverse_packet<A>(q.tree(), q.r, active, q, 0, threshold); break;
     case Traversal::spmd: traverse_spmd<A>(q.tree(), q.r, active, q); break;
   }
-  q.flush_pairs();
   q.sort();
 }
 

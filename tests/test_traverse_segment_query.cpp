@@ -1,8 +1,9 @@
 // The cell-segment query of DVR (traverse/segments.hpp) against a brute
 // force double-precision oracle: every cell of the mesh clipped by
-// cells/reference.hpp. Packet leaves clip tets as (cell, lane) pairs, W at
-// a time (traverse/tet_pairs.hpp); SPMD leaves clip per lane as before; all
-// three traversals must give the same lists bit for bit. Jittered and
+// cells/reference.hpp. Packet leaves clip broadcast cells, SPMD leaves one
+// cell per lane; all three traversals must give the same lists bit for bit
+// (a packet leaf that clips (cell, lane) pairs W at a time, as tried in
+// session 6, must too). Jittered and
 // regular lattices, rays along shared edges and in shared faces, windows
 // ending inside the mesh, NaN cells, lists that overflow test::probe_max_segments.
 
@@ -183,7 +184,7 @@ void check_all(TetMesh const& mesh, std::vector<Ray> const& rays, bool generic =
 
 }  // namespace
 
-TEST_CASE("segments: pair clips vs the double oracle on jittered tets, whole lines and windows", "[traverse][isa]") {
+TEST_CASE("segments: packet, SPMD and hybrid vs the double oracle on jittered tets, whole lines and windows", "[traverse][isa]") {
   auto const g = generate_tets(6 * 6 * 6 * 6, 3);
   TetMesh const mesh = g.mesh();
   check_all(mesh, random_rays(150, 1, false));
@@ -195,7 +196,7 @@ TEST_CASE("segments: shared edges and faces of a regular lattice", "[traverse][i
   check_all(g.mesh(), lattice_rays(6), false);
 }
 
-TEST_CASE("segments: gradients of pair clips are the tets' analytic gradients", "[traverse][isa]") {
+TEST_CASE("segments: gradients are the tets' analytic gradients", "[traverse][isa]") {
   auto const g = generate_tets(6 * 5 * 5 * 5, 4);
   TetMesh const mesh = g.mesh();
   std::vector<Ray> const rays = random_rays(64, 5, false);
