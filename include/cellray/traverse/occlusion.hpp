@@ -185,6 +185,20 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
     }
     return any != 0;
   };
+  // What a pushed node's visit will read first: its children's boxes and
+  // value ranges, or a leaf's item slots (the box test just read the node).
+  auto const prefetch_below = [&tree](uint32_t ni) {
+    Node const& n = tree.nodes[ni];
+    if (n.is_leaf()) {
+      uint64_t const f = n.first_item();
+      __builtin_prefetch(tree.items32 ? static_cast<void const*>(tree.items32 + f)
+                                      : static_cast<void const*>(tree.items64 + f));
+    } else {
+      __builtin_prefetch(tree.nodes + n.left());
+      __builtin_prefetch(tree.nodes + n.right());
+      __builtin_prefetch(tree.ranges + 2 * n.left());
+    }
+  };
   if (!isos.overlaps(tree.ranges[0], tree.ranges[1])) return;
   if (enter(0, pending, stack[0])) sp = 1;
   // Tets: the rays' components per lane, for the pairs.
@@ -202,38 +216,52 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
     if (!any) continue;
     Node const& node = tree.nodes[e.node];
     if (node.is_leaf()) {
-      uint64_t const first = node.first_item();
-      for (uint64_t i = first; i < first + node.item_count(); ++i) {
-        ScalarCorners<N> sc;
-        read_corner_values(mesh, tree.item(i), sc);
-        if (!isos.overlaps(sc.lo, sc.hi)) continue;  // false for NaN
-        float lo[3], hi[3];
-        corner_box(mesh.positions(), sc, lo, hi);
-        // The box against every packet first: most cells are met by none,
-        // and then cost no corner ordering (nor, for hexes, broadcast).
-        uint32_t in[K], any_in = 0;
-        for (int k = 0; k < K; ++k) {
-          uint32_t const live = e.lanes[k] & pending[k];
-          in[k] = 0;
-          if (!live) continue;
-          vfloat<A> tn;
-          in[k] = simd::movemask(simd::mask_from_bits<A>(live) && box_hit(r[k], lo, hi, r[k].tmin, r[k].tmax, tn));
-          any_in |= in[k];
+      // Two passes over up to `chunk` items: first every cell's corner ids
+      // and values (no data-dependent branch, so the loads of all the cells
+      // are in flight together) with a prefetch of its corner positions,
+      // then the value and box tests on what is by then in cache. These
+      // rays are incoherent: the leaf's loads miss, and one cell's test
+      // waiting for its loads before the next cell's loads start was most
+      // of the time.
+      constexpr int chunk = 8;
+      float const* xyz = mesh.positions();
+      uint64_t const first = node.first_item(), end = first + node.item_count();
+      bool open = true;
+      for (uint64_t c0 = first; open && c0 < end; c0 += chunk) {
+        int const m = end - c0 < uint64_t(chunk) ? int(end - c0) : chunk;
+        ScalarCorners<N> cs[chunk];
+        for (int j = 0; j < m; ++j) {
+          read_corner_values(mesh, tree.item(c0 + uint64_t(j)), cs[j]);
+          for (int q = 0; q < N; ++q) __builtin_prefetch(xyz + 3 * cs[j].v[q]);
         }
-        uint32_t left = 0;
-        if (any_in) {
+        for (int j = 0; j < m; ++j) {
+          ScalarCorners<N>& sc = cs[j];
+          if (!isos.overlaps(sc.lo, sc.hi)) continue;  // false for NaN
+          float lo[3], hi[3];
+          corner_box(xyz, sc, lo, hi);
+          // The box against every packet first: most cells are met by none,
+          // and then cost no corner ordering (nor, for hexes, broadcast).
+          uint32_t in[K], any_in = 0;
+          for (int k = 0; k < K; ++k) {
+            uint32_t const live = e.lanes[k] & pending[k];
+            in[k] = 0;
+            if (!live) continue;
+            vfloat<A> tn;
+            in[k] = simd::movemask(simd::mask_from_bits<A>(live) && box_hit(r[k], lo, hi, r[k].tmin, r[k].tmax, tn));
+            any_in |= in[k];
+          }
+          if (!any_in) continue;
           order_corners(mesh.vertex_count(), sc);
           if constexpr (N == 4) {
-            float const* xyz = mesh.positions();
             for (int k = 0; k < K; ++k)
               for (uint32_t b = in[k]; b; b &= b - 1) {
                 int const l = __builtin_ctz(b), at = pairs.n++;
-                for (int j = 0; j < 4; ++j) {
-                  float const* q = xyz + 3 * sc.v[j];
-                  pairs.x[j][at] = q[0], pairs.y[j][at] = q[1], pairs.z[j][at] = q[2];
-                  pairs.s[j][at] = sc.s[j], pairs.id[j][at] = sc.key[j];
+                for (int q = 0; q < 4; ++q) {
+                  float const* p = xyz + 3 * sc.v[q];
+                  pairs.x[q][at] = p[0], pairs.y[q][at] = p[1], pairs.z[q][at] = p[2];
+                  pairs.s[q][at] = sc.s[q], pairs.id[q][at] = sc.key[q];
                 }
-                for (int j = 0; j < 8; ++j) pairs.ray[j][at] = rays[k][j][l];
+                for (int q = 0; q < 8; ++q) pairs.ray[q][at] = rays[k][q][l];
                 pairs.owner[at] = uint16_t(k * W + l);
                 if (pairs.n == W) pairs.flush(pending, isos, method);
               }
@@ -247,9 +275,13 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
               pending[k] &= ~simd::movemask(h.hit && lanes);
             }
           }
+          uint32_t left = 0;
+          for (int k = 0; k < K; ++k) left |= e.lanes[k] & pending[k];
+          if (!left) {
+            open = false;
+            break;
+          }
         }
-        for (int k = 0; k < K; ++k) left |= e.lanes[k] & pending[k];
-        if (!left) break;
       }
       continue;
     }
@@ -259,8 +291,8 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
     bool const hr = isos.overlaps(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]) && enter(ri, e.lanes, er);
     // The builders cap the depth at MinMaxBvh::max_depth, so the stack holds.
     // Any order finds the same answers; the left child is taken first.
-    if (hr) stack[sp++] = er;
-    if (hl) stack[sp++] = el;
+    if (hr) stack[sp++] = er, prefetch_below(ri);
+    if (hl) stack[sp++] = el, prefetch_below(li);
   }
   if constexpr (N == 4) pairs.flush(pending, isos, method);
 }
