@@ -168,7 +168,7 @@ TEST_CASE("occlusion: packet, SPMD, hybrid and grouped packets match the referen
     auto h = generate_hexes(8 * 8 * 8, 1, 0.f);
     check_occlusion("regular hexes", h.mesh(), {0.4f}, lattice_rays(8), 2);
   }
-  SECTION("leaves of up to 20 cells (grouped packets read a leaf 8 cells at a time)") {
+  SECTION("leaves of up to 20 cells") {
     BuildOptions big;
     big.max_leaf_size = 20;
     big.builder = BvhBuilder::morton;  // a range of up to 20 cells is always one leaf

@@ -121,17 +121,57 @@ inline vmask<A> occluded_in(TreeView const& tree, CellMesh<N> const& mesh, RayPa
 /// test_render_occlusion.cpp check them bit for bit).
 template <class A, int K> struct TetPairs {
   static constexpr int W = width<A>;
-  alignas(64) float x[4][W], y[4][W], z[4][W], s[4][W];
-  alignas(64) int32_t id[4][W];
-  alignas(64) float ray[8][W];  ///< ox oy oz dx dy dz tmin tmax
-  uint16_t owner[W];            ///< packet * W + lane
+  // 2 W slots: add() writes a cell's corners to W slots from slot n < W with
+  // one broadcast store per component (not one scalar store per pair);
+  // clip() takes slots [0, W) and the rest move down.
+  alignas(64) float x[4][2 * W], y[4][2 * W], z[4][2 * W], s[4][2 * W];
+  alignas(64) int32_t id[4][2 * W];
+  alignas(64) float ray[8][2 * W];  ///< ox oy oz dx dy dz tmin tmax
+  uint16_t owner[2 * W];            ///< packet * W + lane
   int n = 0;
+
+  /// Adds the pairs of one tet (ordered corners `sc`, positions `xyz`) with
+  /// the lanes `lanes` of packet `k` (whose rays' components are `rays`);
+  /// clips W pairs once W are held.
+  void add(float const* xyz, ScalarCorners<4> const& sc, float const (&rays)[8][W], int k, uint32_t lanes,
+           uint32_t (&pending)[K], IsoSet const& isos, CellIsoOptions const& method) {
+    for (int q = 0; q < 4; ++q) {
+      float const* p = xyz + 3 * sc.v[q];
+      simd::store(x[q] + n, vfloat<A>(p[0]));
+      simd::store(y[q] + n, vfloat<A>(p[1]));
+      simd::store(z[q] + n, vfloat<A>(p[2]));
+      simd::store(s[q] + n, vfloat<A>(sc.s[q]));
+      simd::store(id[q] + n, vint<A>(sc.key[q]));
+    }
+    for (uint32_t b = lanes; b; b &= b - 1) {
+      int const l = __builtin_ctz(b);
+      for (int q = 0; q < 8; ++q) ray[q][n] = rays[q][l];
+      owner[n++] = uint16_t(k * W + l);
+    }
+    if (n < W) return;
+    clip(W, pending, isos, method);
+    n -= W;
+    if (!n) return;
+    for (int q = 0; q < 4; ++q) {
+      simd::store(x[q], simd::load<A>(x[q] + W)), simd::store(y[q], simd::load<A>(y[q] + W));
+      simd::store(z[q], simd::load<A>(z[q] + W)), simd::store(s[q], simd::load<A>(s[q] + W));
+      simd::store(id[q], simd::load<A>(id[q] + W));
+    }
+    for (int q = 0; q < 8; ++q) simd::store(ray[q], simd::load<A>(ray[q] + W));
+    for (int i = 0; i < n; ++i) owner[i] = owner[W + i];
+  }
 
   /// Clips the pairs held and clears the lanes of occluded rays in `pending`.
   void flush(uint32_t (&pending)[K], IsoSet const& isos, CellIsoOptions const& method) {
-    uint32_t live = 0;
-    for (int i = 0; i < n; ++i) live |= (pending[owner[i] / W] >> (owner[i] % W) & 1u) << i;
+    if (n) clip(n, pending, isos, method);
     n = 0;
+  }
+
+  /// Clips the pairs in slots [0, m), m <= W, and clears the lanes of
+  /// occluded rays in `pending`.
+  void clip(int m, uint32_t (&pending)[K], IsoSet const& isos, CellIsoOptions const& method) {
+    uint32_t live = 0;
+    for (int i = 0; i < m; ++i) live |= (pending[owner[i] / W] >> (owner[i] % W) & 1u) << i;
     if (!live) return;
     CellCorners<A, 4> c;
     for (int j = 0; j < 4; ++j) {
@@ -185,20 +225,6 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
     }
     return any != 0;
   };
-  // What a pushed node's visit will read first: its children's boxes and
-  // value ranges, or a leaf's item slots (the box test just read the node).
-  auto const prefetch_below = [&tree](uint32_t ni) {
-    Node const& n = tree.nodes[ni];
-    if (n.is_leaf()) {
-      uint64_t const f = n.first_item();
-      __builtin_prefetch(tree.items32 ? static_cast<void const*>(tree.items32 + f)
-                                      : static_cast<void const*>(tree.items64 + f));
-    } else {
-      __builtin_prefetch(tree.nodes + n.left());
-      __builtin_prefetch(tree.nodes + n.right());
-      __builtin_prefetch(tree.ranges + 2 * n.left());
-    }
-  };
   if (!isos.overlaps(tree.ranges[0], tree.ranges[1])) return;
   if (enter(0, pending, stack[0])) sp = 1;
   // Tets: the rays' components per lane, for the pairs.
@@ -216,55 +242,31 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
     if (!any) continue;
     Node const& node = tree.nodes[e.node];
     if (node.is_leaf()) {
-      // Two passes over up to `chunk` items: first every cell's corner ids
-      // and values (no data-dependent branch, so the loads of all the cells
-      // are in flight together) with a prefetch of its corner positions,
-      // then the value and box tests on what is by then in cache. These
-      // rays are incoherent: the leaf's loads miss, and one cell's test
-      // waiting for its loads before the next cell's loads start was most
-      // of the time.
-      constexpr int chunk = 8;
       float const* xyz = mesh.positions();
-      uint64_t const first = node.first_item(), end = first + node.item_count();
-      bool open = true;
-      for (uint64_t c0 = first; open && c0 < end; c0 += chunk) {
-        int const m = end - c0 < uint64_t(chunk) ? int(end - c0) : chunk;
-        ScalarCorners<N> cs[chunk];
-        for (int j = 0; j < m; ++j) {
-          read_corner_values(mesh, tree.item(c0 + uint64_t(j)), cs[j]);
-          for (int q = 0; q < N; ++q) __builtin_prefetch(xyz + 3 * cs[j].v[q]);
+      uint64_t const first = node.first_item();
+      for (uint64_t i = first; i < first + node.item_count(); ++i) {
+        ScalarCorners<N> sc;
+        read_corner_values(mesh, tree.item(i), sc);
+        if (!isos.overlaps(sc.lo, sc.hi)) continue;  // false for NaN
+        float lo[3], hi[3];
+        corner_box(xyz, sc, lo, hi);
+        // The box against every packet first: most cells are met by none,
+        // and then cost no corner ordering (nor, for hexes, broadcast).
+        uint32_t in[K], any_in = 0;
+        for (int k = 0; k < K; ++k) {
+          uint32_t const live = e.lanes[k] & pending[k];
+          in[k] = 0;
+          if (!live) continue;
+          vfloat<A> tn;
+          in[k] = simd::movemask(simd::mask_from_bits<A>(live) && box_hit(r[k], lo, hi, r[k].tmin, r[k].tmax, tn));
+          any_in |= in[k];
         }
-        for (int j = 0; j < m; ++j) {
-          ScalarCorners<N>& sc = cs[j];
-          if (!isos.overlaps(sc.lo, sc.hi)) continue;  // false for NaN
-          float lo[3], hi[3];
-          corner_box(xyz, sc, lo, hi);
-          // The box against every packet first: most cells are met by none,
-          // and then cost no corner ordering (nor, for hexes, broadcast).
-          uint32_t in[K], any_in = 0;
-          for (int k = 0; k < K; ++k) {
-            uint32_t const live = e.lanes[k] & pending[k];
-            in[k] = 0;
-            if (!live) continue;
-            vfloat<A> tn;
-            in[k] = simd::movemask(simd::mask_from_bits<A>(live) && box_hit(r[k], lo, hi, r[k].tmin, r[k].tmax, tn));
-            any_in |= in[k];
-          }
-          if (!any_in) continue;
+        uint32_t left = 0;
+        if (any_in) {
           order_corners(mesh.vertex_count(), sc);
           if constexpr (N == 4) {
             for (int k = 0; k < K; ++k)
-              for (uint32_t b = in[k]; b; b &= b - 1) {
-                int const l = __builtin_ctz(b), at = pairs.n++;
-                for (int q = 0; q < 4; ++q) {
-                  float const* p = xyz + 3 * sc.v[q];
-                  pairs.x[q][at] = p[0], pairs.y[q][at] = p[1], pairs.z[q][at] = p[2];
-                  pairs.s[q][at] = sc.s[q], pairs.id[q][at] = sc.key[q];
-                }
-                for (int q = 0; q < 8; ++q) pairs.ray[q][at] = rays[k][q][l];
-                pairs.owner[at] = uint16_t(k * W + l);
-                if (pairs.n == W) pairs.flush(pending, isos, method);
-              }
+              if (in[k]) pairs.add(xyz, sc, rays[k], k, in[k], pending, isos, method);
           } else {
             CellCorners<A, N> const c = broadcast<A, N>(mesh, sc);
             for (int k = 0; k < K; ++k) {
@@ -275,13 +277,9 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
               pending[k] &= ~simd::movemask(h.hit && lanes);
             }
           }
-          uint32_t left = 0;
-          for (int k = 0; k < K; ++k) left |= e.lanes[k] & pending[k];
-          if (!left) {
-            open = false;
-            break;
-          }
         }
+        for (int k = 0; k < K; ++k) left |= e.lanes[k] & pending[k];
+        if (!left) break;
       }
       continue;
     }
@@ -291,8 +289,8 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
     bool const hr = isos.overlaps(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]) && enter(ri, e.lanes, er);
     // The builders cap the depth at MinMaxBvh::max_depth, so the stack holds.
     // Any order finds the same answers; the left child is taken first.
-    if (hr) stack[sp++] = er, prefetch_below(ri);
-    if (hl) stack[sp++] = el, prefetch_below(li);
+    if (hr) stack[sp++] = er;
+    if (hl) stack[sp++] = el;
   }
   if constexpr (N == 4) pairs.flush(pending, isos, method);
 }
