@@ -4,6 +4,7 @@
 //
 //   ./build/bench/bench_targets            (about 10 minutes on 2 cores)
 //   ./build/bench/bench_targets --quick    (128x128 frames, no 5M mesh: a smoke run)
+//   ./build/bench/bench_targets --secondary [--rounds N]   (only the shadow + AO line, ~40 s)
 //
 // Every frame is 1024x1024, one sample per pixel, camera fitted to the mesh
 // bounds (fit_camera), as the issue asks. "Per core" figures run TBB with one
@@ -12,11 +13,14 @@
 // largest step whose image is within 1/255 RMSE of the reference renderer
 // (checked on a 128x128 frame), for point samples (the step is the sample
 // spacing) and cell segments (the step is the longest integration piece).
+// The shadow + AO line times the secondary rays alone, as differences of
+// frames with and without them in interleaved rounds (secondary_rounds).
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <functional>
@@ -41,7 +45,9 @@ struct Options {
   int size = 1024;      ///< frame side, pixels
   int check_size = 128;  ///< frame side of the accuracy check against the reference
   int frames = 3;
+  int rounds = 9;  ///< rounds of the secondary-ray variants (secondary_rounds)
   bool large = true;  ///< include the generated 5M-tet mesh
+  bool secondary_only = false;  ///< --secondary: only the shadow + AO line
 };
 
 /// One mesh of the targets with its tree and what to show.
@@ -188,19 +194,55 @@ DvrResult best_dvr(Subject const& s, Options const& o) {
   return *std::max_element(ok.begin(), ok.end(), [](auto const& a, auto const& b) { return a.mrays < b.mrays; });
 }
 
-/// Time of the shadow + AO rays alone: (with them) - (without), per variant.
-double secondary_seconds(Subject const& s, Options const& o, SecondaryQuery query, Traversal how, int threads) {
+/// The secondary rays of the targets: hard shadows from the light
+/// cellray-render --shadows uses (above the camera's left shoulder, behind
+/// the viewer: not the headlight, whose shadow rays retrace the camera rays
+/// and are as coherent as they), plus 4 AO rays per hit.
+IsoParams lit_params(Subject const& s, Camera const& cam) {
+  IsoParams p = iso_params(s);
+  p.shadows = true;
+  p.ao_samples = 4;
+  p.light_dir = glm::normalize(0.8f * cam.up - 0.5f * cam.right - 0.4f * cam.forward);
+  return p;
+}
+
+/// Process CPU time of one call, seconds.
+double cpu_seconds(std::function<void()> const& f) {
+  double const a = process_cpu_seconds();
+  f();
+  return process_cpu_seconds() - a;
+}
+
+/// Shadow + AO ray time of each of `queries` x `hows` (one TBB thread,
+/// process CPU time): per round and variant, a frame without secondary rays
+/// and one with them back to back (in alternating order), their difference
+/// the variant's secondary time in that round. Rounds visit every variant,
+/// so a slow minute of a shared machine hits all of them; `times[v]` gets
+/// one difference per round.
+void secondary_rounds(Subject const& s, Options const& o, std::vector<std::pair<SecondaryQuery, Traversal>> const& variants,
+                      int rounds, std::vector<std::vector<double>>& times) {
+  tbb::global_control gc(tbb::global_control::max_allowed_parallelism, 1);
   Scene const scene = s.scene();
   Camera const cam = camera_for(s, o.size / 2);
-  IsoParams plain = iso_params(s), lit = iso_params(s);
-  lit.shadows = true;
-  lit.ao_samples = 4;
-  RenderOptions ro;
-  ro.secondary_traversal = how;
-  ro.secondary_query = query;
-  double const base = median_seconds(o.frames, threads, [&] { render_iso(scene, cam, plain, ro); });
-  double const with = median_seconds(o.frames, threads, [&] { render_iso(scene, cam, lit, ro); });
-  return std::max(with - base, 1e-9);
+  IsoParams const plain = iso_params(s), lit = lit_params(s, cam);
+  times.assign(variants.size(), {});
+  std::vector<RenderOptions> ro(variants.size());
+  for (size_t v = 0; v < variants.size(); ++v) {
+    ro[v].secondary_query = variants[v].first;
+    ro[v].secondary_traversal = variants[v].second;
+    render_iso(scene, cam, lit, ro[v]);  // warm caches
+  }
+  for (int round = 0; round < rounds; ++round)
+    for (size_t v = 0; v < variants.size(); ++v) {
+      double const a = cpu_seconds([&] { render_iso(scene, cam, round % 2 ? plain : lit, ro[v]); });
+      double const b = cpu_seconds([&] { render_iso(scene, cam, round % 2 ? lit : plain, ro[v]); });
+      times[v].push_back(std::max(round % 2 ? b - a : a - b, 1e-9));
+    }
+}
+
+double median_of(std::vector<double> t) {
+  std::nth_element(t.begin(), t.begin() + ptrdiff_t(t.size() / 2), t.end());
+  return t[t.size() / 2];
 }
 
 struct Row {
@@ -219,14 +261,63 @@ void print(std::vector<Row> const& rows) {
   std::fflush(stdout);
 }
 
+/// The shadow + AO line: every variant's secondary time (median over the
+/// rounds, [fastest, slowest]) and the best variant against "packet": the
+/// nearest-hit query (SecondaryQuery::nearest) with packet traversal, one
+/// pixel block's W shadow rays, or one AO sample of its W hits, per packet,
+/// in pixel order: the first-hit traversal of the primary rays, and the
+/// renderer's default up to session 4. The ratio is the median over rounds
+/// of (packet / variant) within one round, so the machine's drift between
+/// rounds cancels; [lo, hi] is its spread over the rounds.
+Row secondary_row(Subject const& s, Options const& o) {
+  struct Variant {
+    char const* name;
+    SecondaryQuery query;
+    Traversal how;
+  };
+  // The default (grouped) right after packet: their per-round ratio spans
+  // the shortest time.
+  Variant const variants[] = {{"packet", SecondaryQuery::nearest, Traversal::packet},
+                              {"grouped", SecondaryQuery::grouped, Traversal::packet},
+                              {"sorted", SecondaryQuery::sorted, Traversal::packet},
+                              {"occlusion", SecondaryQuery::occlusion, Traversal::packet},
+                              {"spmd", SecondaryQuery::nearest, Traversal::spmd},
+                              {"hybrid", SecondaryQuery::nearest, Traversal::hybrid}};
+  std::vector<std::pair<SecondaryQuery, Traversal>> pairs;
+  for (Variant const& v : variants) pairs.push_back({v.query, v.how});
+  std::vector<std::vector<double>> times;
+  secondary_rounds(s, o, pairs, o.rounds, times);
+  std::printf("\nshadow (light above the left shoulder) + 4 AO rays per hit, %s, %dx%d, 1 thread, secondary CPU time, "
+              "median of %d rounds [min, max], ratio packet/variant per round:\n",
+              s.name.c_str(), o.size / 2, o.size / 2, o.rounds);
+  double best = 0;
+  std::string best_name;
+  for (size_t v = 0; v < pairs.size(); ++v) {
+    std::vector<double> ratio;
+    for (size_t r = 0; r < times[v].size(); ++r) ratio.push_back(times[0][r] / times[v][r]);
+    double const med = median_of(ratio);
+    std::printf("  %-9s %6.1f ms [%.1f, %.1f]  x%.3f [%.3f, %.3f]\n", variants[v].name, median_of(times[v]) * 1e3,
+                *std::min_element(times[v].begin(), times[v].end()) * 1e3,
+                *std::max_element(times[v].begin(), times[v].end()) * 1e3, med,
+                *std::min_element(ratio.begin(), ratio.end()), *std::max_element(ratio.begin(), ratio.end()));
+    if (v > 0 && med > best) best = med, best_name = variants[v].name;
+  }
+  std::printf("  (default: %s, %s traversal)\n", secondary_query_name(RenderOptions{}.secondary_query),
+              traversal_name(RenderOptions{}.secondary_traversal));
+  std::fflush(stdout);
+  return {"shadow+AO rays, best variant (" + best_name + ") / packet", "x", best, 1.5};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   Options o;
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--quick")) o.size = 128, o.check_size = 64, o.frames = 1, o.large = false;
+    if (!std::strcmp(argv[i], "--quick")) o.size = 128, o.check_size = 64, o.frames = 1, o.rounds = 1, o.large = false;
+    else if (!std::strcmp(argv[i], "--secondary")) o.secondary_only = true;
+    else if (!std::strcmp(argv[i], "--rounds") && i + 1 < argc) o.rounds = std::max(1, std::atoi(argv[++i]));
     else {
-      std::fprintf(stderr, "usage: %s [--quick]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--quick] [--secondary] [--rounds N]\n", argv[0]);
       return 2;
     }
   }
@@ -235,6 +326,11 @@ int main(int argc, char** argv) {
               "# 1-thread figures: process CPU time; all-thread figures: wall time\n",
               o.size, o.size, o.frames, all, isa_name(best_isa()));
   std::vector<Row> rows;
+  if (o.secondary_only) {
+    rows.push_back(secondary_row(*load("component8_608k"), o));
+    print(rows);
+    return 0;
+  }
   std::vector<std::string> names = {"component8_608k", "boxturb48_dns"};
   if (o.large) names.push_back("gen_tets_5000000");
 
@@ -262,36 +358,7 @@ int main(int argc, char** argv) {
   double const both = iso_mrays(*c8, o, all, best_isa(), Traversal::packet);
   rows.push_back({std::to_string(all) + " threads / 1 thread, iso, component8", "x", both / one, 1.8});
 
-  // Secondary rays (headlight shadows + 4 AO rays per hit): the best variant
-  // against "packet", i.e. the nearest-hit query in pixel-block packets with
-  // packet traversal (SecondaryQuery::nearest, the renderer's default up to
-  // session 4), every variant measured in this run, and which one the
-  // renderer picks by default.
-  {
-    struct Variant {
-      char const* name;
-      SecondaryQuery query;
-      Traversal how;
-    };
-    Variant const variants[] = {{"packet", SecondaryQuery::nearest, Traversal::packet},
-                                {"spmd", SecondaryQuery::nearest, Traversal::spmd},
-                                {"hybrid", SecondaryQuery::nearest, Traversal::hybrid},
-                                {"occlusion", SecondaryQuery::occlusion, Traversal::packet},
-                                {"sorted", SecondaryQuery::sorted, Traversal::packet},
-                                {"grouped", SecondaryQuery::grouped, Traversal::packet}};
-    std::printf("\nshadow + 4 AO rays per hit, component8, %dx%d, 1 thread, secondary time:", o.size / 2, o.size / 2);
-    double packet = 0, best = 1e30;
-    std::string best_name;
-    for (Variant const& v : variants) {
-      double const t = secondary_seconds(*c8, o, v.query, v.how, 1);
-      std::printf(" %s %.0f ms,", v.name, t * 1e3);
-      if (v.query == SecondaryQuery::nearest && v.how == Traversal::packet) packet = t;
-      else if (t < best) best = t, best_name = v.name;
-    }
-    std::printf(" (default: %s, %s traversal)\n", secondary_query_name(RenderOptions{}.secondary_query),
-                traversal_name(RenderOptions{}.secondary_traversal));
-    rows.push_back({"shadow+AO rays, best variant (" + best_name + ") / packet", "x", packet / best, 1.5});
-  }
+  rows.push_back(secondary_row(*c8, o));
 
   // Time to the first image of a new 1M-cell mesh: build + render vs render.
   {

@@ -95,8 +95,8 @@ bool reference_occluded(ref_render::Setup const& s, Ray const& r, IsoParams cons
 
 template <int N>
 void check_occlusion(std::string const& name, CellMesh<N> const& mesh, std::vector<float> const& isos,
-                     std::vector<Ray> const& extra) {
-  MinMaxBvh const bvh = build_minmax_bvh(mesh);
+                     std::vector<Ray> const& extra, BuildOptions const& build = {}) {
+  MinMaxBvh const bvh = build_minmax_bvh(mesh, build);
   TreeView const tree(bvh);
   IsoQuery q;
   IsoParams p;
@@ -161,6 +161,15 @@ TEST_CASE("occlusion: packet, SPMD, hybrid and grouped packets match the referen
     check_occlusion("regular tets", t.mesh(), {0.4f}, lattice_rays(8));
     auto h = generate_hexes(8 * 8 * 8, 1, 0.f);
     check_occlusion("regular hexes", h.mesh(), {0.4f}, lattice_rays(8));
+  }
+  SECTION("leaves of up to 20 cells") {
+    BuildOptions big;
+    big.max_leaf_size = 20;
+    big.builder = BvhBuilder::morton;  // a range of up to 20 cells is always one leaf
+    auto g = generate_tets(6 * 9 * 9 * 9, 7);
+    check_occlusion("tets, leaves of 20", g.mesh(), {0.3f, 0.5f}, {}, big);
+    auto h = generate_hexes(9 * 9 * 9, 3);
+    check_occlusion("hexes, leaves of 20", h.mesh(), {0.45f}, {}, big);
   }
 }
 

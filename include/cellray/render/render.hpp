@@ -158,11 +158,12 @@ struct RenderOptions {
   /// kernel, same window); shadows with surfaces of different opacities
   /// keep the nearest hit's opacity (the reference renderer's meaning), so
   /// they always use the nearest-hit query. Default `grouped`, measured on
-  /// component8 with headlight shadows + 4 AO rays per hit, 1 thread: the
-  /// secondary rays' instructions 1.37x fewer than `nearest` (callgrind,
-  /// AVX2, 256x256), but they wait on memory: whole frames with shadows and
-  /// 4 AO rays ~1.1x faster on an idle machine (AVX-512, 512x512; README
-  /// Performance; bench/bench_targets prints the secondary time per query).
+  /// component8 (iso 423, shadows from a light above the left shoulder + 4
+  /// AO rays per hit, 1 thread): the secondary rays' instructions 1.37x
+  /// fewer than `nearest` (callgrind, AVX2, 256x256; AO rays 1.44x, shadow
+  /// rays 1.05x), but they wait on memory: secondary CPU time 1.09x-1.25x
+  /// less than `nearest` (AVX-512, 512x512, `bench_targets --secondary`,
+  /// medians of per-round ratios in 4 runs on a loaded machine).
   SecondaryQuery secondary_query = SecondaryQuery::grouped;
   int hybrid_threshold = 0;  ///< 0: a quarter of the packet width
   int tile_size = 32;        ///< pixels per tile side, scheduled on TBB

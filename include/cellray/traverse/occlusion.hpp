@@ -121,17 +121,57 @@ inline vmask<A> occluded_in(TreeView const& tree, CellMesh<N> const& mesh, RayPa
 /// test_render_occlusion.cpp check them bit for bit).
 template <class A, int K> struct TetPairs {
   static constexpr int W = width<A>;
-  alignas(64) float x[4][W], y[4][W], z[4][W], s[4][W];
-  alignas(64) int32_t id[4][W];
-  alignas(64) float ray[8][W];  ///< ox oy oz dx dy dz tmin tmax
-  uint16_t owner[W];            ///< packet * W + lane
+  // 2 W slots: add() writes a cell's corners to W slots from slot n < W with
+  // one broadcast store per component (not one scalar store per pair);
+  // clip() takes slots [0, W) and the rest move down.
+  alignas(64) float x[4][2 * W], y[4][2 * W], z[4][2 * W], s[4][2 * W];
+  alignas(64) int32_t id[4][2 * W];
+  alignas(64) float ray[8][2 * W];  ///< ox oy oz dx dy dz tmin tmax
+  uint16_t owner[2 * W];            ///< packet * W + lane
   int n = 0;
+
+  /// Adds the pairs of one tet (ordered corners `sc`, positions `xyz`) with
+  /// the lanes `lanes` of packet `k` (whose rays' components are `rays`);
+  /// clips W pairs once W are held.
+  void add(float const* xyz, ScalarCorners<4> const& sc, float const (&rays)[8][W], int k, uint32_t lanes,
+           uint32_t (&pending)[K], IsoSet const& isos, CellIsoOptions const& method) {
+    for (int q = 0; q < 4; ++q) {
+      float const* p = xyz + 3 * sc.v[q];
+      simd::store(x[q] + n, vfloat<A>(p[0]));
+      simd::store(y[q] + n, vfloat<A>(p[1]));
+      simd::store(z[q] + n, vfloat<A>(p[2]));
+      simd::store(s[q] + n, vfloat<A>(sc.s[q]));
+      simd::store(id[q] + n, vint<A>(sc.key[q]));
+    }
+    for (uint32_t b = lanes; b; b &= b - 1) {
+      int const l = __builtin_ctz(b);
+      for (int q = 0; q < 8; ++q) ray[q][n] = rays[q][l];
+      owner[n++] = uint16_t(k * W + l);
+    }
+    if (n < W) return;
+    clip(W, pending, isos, method);
+    n -= W;
+    if (!n) return;
+    for (int q = 0; q < 4; ++q) {
+      simd::store(x[q], simd::load<A>(x[q] + W)), simd::store(y[q], simd::load<A>(y[q] + W));
+      simd::store(z[q], simd::load<A>(z[q] + W)), simd::store(s[q], simd::load<A>(s[q] + W));
+      simd::store(id[q], simd::load<A>(id[q] + W));
+    }
+    for (int q = 0; q < 8; ++q) simd::store(ray[q], simd::load<A>(ray[q] + W));
+    for (int i = 0; i < n; ++i) owner[i] = owner[W + i];
+  }
 
   /// Clips the pairs held and clears the lanes of occluded rays in `pending`.
   void flush(uint32_t (&pending)[K], IsoSet const& isos, CellIsoOptions const& method) {
-    uint32_t live = 0;
-    for (int i = 0; i < n; ++i) live |= (pending[owner[i] / W] >> (owner[i] % W) & 1u) << i;
+    if (n) clip(n, pending, isos, method);
     n = 0;
+  }
+
+  /// Clips the pairs in slots [0, m), m <= W, and clears the lanes of
+  /// occluded rays in `pending`.
+  void clip(int m, uint32_t (&pending)[K], IsoSet const& isos, CellIsoOptions const& method) {
+    uint32_t live = 0;
+    for (int i = 0; i < m; ++i) live |= (pending[owner[i] / W] >> (owner[i] % W) & 1u) << i;
     if (!live) return;
     CellCorners<A, 4> c;
     for (int j = 0; j < 4; ++j) {
@@ -202,13 +242,14 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
     if (!any) continue;
     Node const& node = tree.nodes[e.node];
     if (node.is_leaf()) {
+      float const* xyz = mesh.positions();
       uint64_t const first = node.first_item();
       for (uint64_t i = first; i < first + node.item_count(); ++i) {
         ScalarCorners<N> sc;
         read_corner_values(mesh, tree.item(i), sc);
         if (!isos.overlaps(sc.lo, sc.hi)) continue;  // false for NaN
         float lo[3], hi[3];
-        corner_box(mesh.positions(), sc, lo, hi);
+        corner_box(xyz, sc, lo, hi);
         // The box against every packet first: most cells are met by none,
         // and then cost no corner ordering (nor, for hexes, broadcast).
         uint32_t in[K], any_in = 0;
@@ -224,19 +265,8 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
         if (any_in) {
           order_corners(mesh.vertex_count(), sc);
           if constexpr (N == 4) {
-            float const* xyz = mesh.positions();
             for (int k = 0; k < K; ++k)
-              for (uint32_t b = in[k]; b; b &= b - 1) {
-                int const l = __builtin_ctz(b), at = pairs.n++;
-                for (int j = 0; j < 4; ++j) {
-                  float const* q = xyz + 3 * sc.v[j];
-                  pairs.x[j][at] = q[0], pairs.y[j][at] = q[1], pairs.z[j][at] = q[2];
-                  pairs.s[j][at] = sc.s[j], pairs.id[j][at] = sc.key[j];
-                }
-                for (int j = 0; j < 8; ++j) pairs.ray[j][at] = rays[k][j][l];
-                pairs.owner[at] = uint16_t(k * W + l);
-                if (pairs.n == W) pairs.flush(pending, isos, method);
-              }
+              if (in[k]) pairs.add(xyz, sc, rays[k], k, in[k], pending, isos, method);
           } else {
             CellCorners<A, N> const c = broadcast<A, N>(mesh, sc);
             for (int k = 0; k < K; ++k) {
