@@ -245,6 +245,44 @@ double median_of(std::vector<double> t) {
   return t[t.size() / 2];
 }
 
+/// One configuration of a scaling line: ISA and TBB threads.
+struct ScalingVariant {
+  Isa isa;
+  int threads;
+};
+
+/// Speed of each variant over the first one (component8 iso primary rays,
+/// packet traversal): per round, one frame of every variant back to back,
+/// the ratio first-time / variant-time within the round, then the median
+/// over 2 * frames + 1 rounds, so the machine's drift between rounds
+/// cancels. Process CPU time, or wall time when `wall` (thread scaling).
+std::vector<double> scaling_ratios(Subject const& s, Options const& o, std::vector<ScalingVariant> const& variants,
+                                   bool wall) {
+  Scene const scene = s.scene();
+  Camera const cam = camera_for(s, o.size);
+  IsoParams const p = iso_params(s);
+  auto frame = [&](ScalingVariant const& v) {
+    tbb::global_control gc(tbb::global_control::max_allowed_parallelism, size_t(v.threads));
+    RenderOptions ro;
+    ro.isa = v.isa;
+    ro.traversal = Traversal::packet;
+    render_iso(scene, cam, p, ro);  // warm caches and TBB's workers
+    if (!wall) return cpu_seconds([&] { render_iso(scene, cam, p, ro); });
+    auto const a = std::chrono::steady_clock::now();
+    render_iso(scene, cam, p, ro);
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count();
+  };
+  std::vector<std::vector<double>> ratio(variants.size());
+  for (int round = 0; round < 2 * o.frames + 1; ++round) {
+    std::vector<double> t;
+    for (ScalingVariant const& v : variants) t.push_back(frame(v));
+    for (size_t v = 0; v < variants.size(); ++v) ratio[v].push_back(t[0] / t[v]);
+  }
+  std::vector<double> out;
+  for (auto const& r : ratio) out.push_back(median_of(r));
+  return out;
+}
+
 struct Row {
   std::string target, measured_as;
   double measured, goal;
@@ -346,17 +384,22 @@ int main(int argc, char** argv) {
     print({rows.end() - 2, rows.end()});
   }
 
-  // SIMD and thread scaling of the packet isosurface traversal.
+  // SIMD and thread scaling of the packet isosurface traversal, as medians
+  // of per-round ratios (scaling_ratios): two medians taken minutes apart
+  // swung these lines by +-20% on the shared VM.
   auto const c8 = load("component8_608k");
-  double const sse = iso_mrays(*c8, o, 1, Isa::sse4_2, Traversal::packet);
-  if (isa_available(Isa::avx2))
-    rows.push_back({"AVX2 / SSE4.2, packet iso, component8", "x", iso_mrays(*c8, o, 1, Isa::avx2, Traversal::packet) / sse, 1.5});
-  if (isa_available(Isa::avx512))
-    rows.push_back(
-        {"AVX-512 / SSE4.2, packet iso, component8", "x", iso_mrays(*c8, o, 1, Isa::avx512, Traversal::packet) / sse, 2.0});
-  double const one = iso_mrays(*c8, o, 1, best_isa(), Traversal::packet, true);
-  double const both = iso_mrays(*c8, o, all, best_isa(), Traversal::packet);
-  rows.push_back({std::to_string(all) + " threads / 1 thread, iso, component8", "x", both / one, 1.8});
+  {
+    std::vector<ScalingVariant> isas = {{Isa::sse4_2, 1}};
+    if (isa_available(Isa::avx2)) isas.push_back({Isa::avx2, 1});
+    if (isa_available(Isa::avx512)) isas.push_back({Isa::avx512, 1});
+    std::vector<double> const r = scaling_ratios(*c8, o, isas, false);
+    for (size_t v = 1; v < isas.size(); ++v)
+      rows.push_back({isas[v].isa == Isa::avx2 ? "AVX2 / SSE4.2, packet iso, component8"
+                                               : "AVX-512 / SSE4.2, packet iso, component8",
+                      "x", r[v], isas[v].isa == Isa::avx2 ? 1.5 : 2.0});
+    std::vector<double> const t = scaling_ratios(*c8, o, {{best_isa(), 1}, {best_isa(), all}}, true);
+    rows.push_back({std::to_string(all) + " threads / 1 thread, iso, component8", "x", t[1], 1.8});
+  }
 
   rows.push_back(secondary_row(*c8, o));
 
