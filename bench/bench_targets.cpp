@@ -176,7 +176,7 @@ DvrResult best_dvr(Subject const& s, Options const& o) {
   std::vector<DvrResult> ok;
   for (DvrMode mode : {DvrMode::segments, DvrMode::samples}) {
     p.mode = mode;
-    for (float div : {100.f, 200.f, 400.f, 800.f, 1600.f, 3200.f}) {
+    for (float div : {25.f, 50.f, 100.f, 200.f, 400.f, 800.f, 1600.f, 3200.f}) {
       p.step = diag / div;
       double const rmse = compare_images(render_dvr(scene, check_cam, p), reference).rmse;
       if (rmse <= 1.0) {

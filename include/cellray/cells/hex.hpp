@@ -330,7 +330,7 @@ inline Vec3<A> invert_hex(CellCorners<A, 8> const& c, Vec3<A> const& p, Vec3<A> 
                           vmask<A>& converged) {
   vfloat<A> const tol(hex_newton_tol), far(3.f), half(0.5f);
   vmask<A> active = lanes;
-  converged = vmask<A>(false);
+  converged = simd::no_lanes<A>();
   for (int it = 0; it < cap && simd::any(active); ++it) {
     Vec3<A> const x{trilerp<A>(c.x, u), trilerp<A>(c.y, u), trilerp<A>(c.z, u)};
     Vec3<A> const r = x - p;
@@ -392,7 +392,7 @@ inline HexClip<A> clip_hex_window(RayBatch<A> const& ray, CellCorners<A, 8> cons
   constexpr float inf = std::numeric_limits<float>::infinity();
   vfloat<A> const zero(0.f);
   detail::HullAcc<A> acc{vfloat<A>(inf), vfloat<A>(-inf), zero, zero, {zero, zero, zero}, {zero, zero, zero}};
-  vmask<A> affine(true);
+  vmask<A> affine = simd::all_lanes<A>();
   for (int f = 0; f < 6; ++f) {
     detail::PatchCorner<A> q[4];
     detail::canonical_patch(c, f, q);
@@ -410,7 +410,7 @@ inline HexClip<A> clip_hex_window(RayBatch<A> const& ray, CellCorners<A, 8> cons
 /// clip_hex_window with every lane and the whole line.
 template <class A> inline HexClip<A> clip_hex(RayBatch<A> const& ray, CellCorners<A, 8> const& c) {
   constexpr float inf = std::numeric_limits<float>::infinity();
-  return clip_hex_window(ray, c, vmask<A>(true), vfloat<A>(-inf), vfloat<A>(inf));
+  return clip_hex_window(ray, c, simd::all_lanes<A>(), vfloat<A>(-inf), vfloat<A>(inf));
 }
 
 /// Point containment and trilinear interpolation by Newton inversion of the
@@ -426,7 +426,7 @@ template <class A> inline HexClip<A> clip_hex(RayBatch<A> const& ray, CellCorner
 /// hexes is measured in tests/test_cells_hex.cpp.
 template <class A> inline Located<A> locate_hex(PointBatch<A> const& pts, CellCorners<A, 8> const& c) {
   Located<A> r;
-  r.param = detail::invert_hex(c, pts.p(), detail::centre<A>(), vmask<A>(true), hex_newton_cap, r.converged);
+  r.param = detail::invert_hex(c, pts.p(), detail::centre<A>(), simd::all_lanes<A>(), hex_newton_cap, r.converged);
   r.value = detail::trilerp<A>(c.s, r.param);
   r.inside = r.converged && detail::in_unit_cube<A>(r.param, hex_inside_tolerance);
   return r;
@@ -447,7 +447,7 @@ template <class A>
 inline Vec3<A> gradient_central_hex(CellCorners<A, 8> const& c, Vec3<A> const& p, Vec3<A> const& param, float h) {
   vfloat<A> const hv(h), zero(0.f), inv(0.5f / h);
   auto value_at = [&](Vec3<A> const& x, vmask<A>& ok) {
-    Vec3<A> const u = detail::invert_hex(c, x, param, vmask<A>(true), hex_newton_cap, ok);
+    Vec3<A> const u = detail::invert_hex(c, x, param, simd::all_lanes<A>(), hex_newton_cap, ok);
     return detail::trilerp<A>(c.s, u);
   };
   auto diff = [&](Vec3<A> const& e) {
@@ -565,7 +565,7 @@ inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip
                                   float const* isovalues, int count, int refine_steps = 2, Vec3<A>* param = nullptr,
                                   vfloat<A> const* t_from = nullptr) {
   constexpr float inf = std::numeric_limits<float>::infinity();
-  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
+  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), simd::no_lanes<A>()};
   vmask<A> const valid = clip.hit && !has_nan_value(c);
   if (simd::none(valid)) return h;
   Vec3<A> const du = clip.u_out - clip.u_in;

@@ -20,7 +20,7 @@ inline CellCorners<A, N> load_cells(CellMesh<N> const& mesh, CellSelect const& s
   if (!sel.ids) return broadcast_corners<A, N>(mesh, sel.uniform);
   alignas(64) int32_t ids[width<A>];
   for (int l = 0; l < width<A>; ++l) ids[l] = int32_t(sel.ids[query_lane(i, l, n)]);
-  return gather_corners<A, N>(mesh, simd::load<A>(ids), vmask<A>(true));
+  return gather_corners<A, N>(mesh, simd::load<A>(ids), simd::all_lanes<A>());
 }
 
 template <class A> inline RayBatch<A> load_rays(RayQuery const* rays, uint64_t i, uint64_t n) {

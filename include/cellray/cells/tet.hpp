@@ -131,9 +131,9 @@ template <class A> inline void keep_nearest(CellIsoHit<A>& h, vmask<A> const& fo
 /// it may return anything when no lane has.
 template <class A, class Root> inline CellIsoHit<A> nearest_crossing(float const* isovalues, int count, Root const& root) {
   constexpr float inf = std::numeric_limits<float>::infinity();
-  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
+  CellIsoHit<A> h{vfloat<A>(inf), vint<A>(-1), simd::no_lanes<A>()};
   for (int k = 0; k < count; ++k) {
-    vmask<A> found(false);
+    vmask<A> found = simd::no_lanes<A>();
     vfloat<A> const t = root(vfloat<A>(isovalues[k]), found);
     if (simd::any(found)) keep_nearest<A>(h, found, t, k);
   }
@@ -243,7 +243,7 @@ inline CellClip<A> clip_tet_window(RayBatch<A> const& ray, CellCorners<A, 4> con
 /// and the whole line).
 template <class A> inline CellClip<A> clip_tet(RayBatch<A> const& ray, CellCorners<A, 4> const& c) {
   constexpr float inf = std::numeric_limits<float>::infinity();
-  return clip_tet_window(ray, c, vmask<A>(true), vfloat<A>(-inf), vfloat<A>(inf));
+  return clip_tet_window(ray, c, simd::all_lanes<A>(), vfloat<A>(-inf), vfloat<A>(inf));
 }
 
 /// The tet's linear interpolant at `p`, extrapolated outside the cell.
@@ -253,7 +253,7 @@ inline vfloat<A> interpolate_tet(CellCorners<A, 4> const& c, Vec3<A> const& p, v
                                  Vec3<A>* weights123 = nullptr) {
   vfloat<A> const zero(0.f);
   vfloat<A> value = zero;
-  vmask<A> in(true);
+  vmask<A> in = simd::all_lanes<A>();
   vfloat<A> w[4];
   for (int f = 0; f < 4; ++f) {
     detail::TetFace<A> const F = detail::tet_face(c, f);
@@ -280,7 +280,7 @@ inline vfloat<A> interpolate_tet(CellCorners<A, 4> const& c, Vec3<A> const& p, v
 template <class A> inline Located<A> locate_tet(PointBatch<A> const& pts, CellCorners<A, 4> const& c) {
   Located<A> r;
   r.value = interpolate_tet(c, pts.p(), &r.inside, &r.param);
-  r.converged = vmask<A>(true);
+  r.converged = simd::all_lanes<A>();
   return r;
 }
 

@@ -37,7 +37,7 @@ inline void boxes_and_ranges(CellMesh<N> const& mesh, uint64_t begin, uint64_t e
     for (; i + W <= end; i += W) {
       vfloat<Arch> lo[3] = {inf, inf, inf}, hi[3] = {-inf, -inf, -inf};
       vfloat<Arch> vmin(inf), vmax(-inf);
-      vmask<Arch> has_nan(false);
+      vmask<Arch> has_nan = simd::no_lanes<Arch>();
       for (int c = 0; c < N; ++c) {
         vint<Arch> v = corner_ids<Arch>(mesh, i, c);
         if (boxes) {
@@ -54,7 +54,7 @@ inline void boxes_and_ranges(CellMesh<N> const& mesh, uint64_t begin, uint64_t e
           vmin = simd::min(vmin, s);
           vmax = simd::max(vmax, s);
         } else {
-          has_nan = vmask<Arch>(true);
+          has_nan = simd::all_lanes<Arch>();
         }
       }
       vmin = simd::select(has_nan, vfloat<Arch>(inf), vmin);

@@ -19,7 +19,7 @@ namespace impl {
 template <class A>
 inline vmask<A> scene_occluded(PreparedScene const& s, RayPacket<A> const& r, vmask<A> active, IsoSet const& isos,
                                CellIsoOptions const& roots, Traversal how, int threshold) {
-  vmask<A> occ(false);
+  vmask<A> occ = simd::no_lanes<A>();
   for (PreparedPart const& part : s.parts) {
     vmask<A> const open = active && !occ;
     if (simd::none(open)) break;

@@ -49,13 +49,22 @@ template <class A>
 inline RayPacket<A> camera_packet(Camera const& cam, Tile const& tile, int bx, int by, int (&px)[width<A>],
                                   int (&py)[width<A>], uint32_t& valid) {
   constexpr int W = width<A>;
-  valid = 0;
-  for (int l = 0; l < W; ++l) {
-    int const x = bx + l % block_w<A>, y = by + l / block_w<A>;
-    bool const in = x < tile.x0 + tile.w && y < tile.y0 + tile.h;
-    px[l] = in ? x : bx;
-    py[l] = in ? y : by;
-    if (in) valid |= 1u << l;
+  constexpr uint32_t all = W == 32 ? ~0u : (1u << W) - 1u;
+  bool const whole = bx + block_w<A> <= tile.x0 + tile.w && by + block_h<A> <= tile.y0 + tile.h;
+  if (whole) {
+    // Every block but those on a tile's right or bottom edge.
+    valid = all;
+    for (int l = 0; l < W; ++l) px[l] = bx + l % block_w<A>, py[l] = by + l / block_w<A>;
+  } else {
+    uint32_t bits = 0;  // in a register, not through `valid`
+    for (int l = 0; l < W; ++l) {
+      int const x = bx + l % block_w<A>, y = by + l / block_w<A>;
+      bool const in = x < tile.x0 + tile.w && y < tile.y0 + tile.h;
+      px[l] = in ? x : bx;
+      py[l] = in ? y : by;
+      bits |= uint32_t(in) << l;
+    }
+    valid = bits;
   }
   // Pixel coordinates as floats from constant lane offsets (exact: small
   // integers), not from per-lane conversions stored and reloaded as a vector.
@@ -641,7 +650,7 @@ void integrate_samples(PreparedScene const& s, RayPacket<A> const& r, vmask<A> c
   vfloat<A> const term(p.termination), one(1.f);
   // The pending sample per lane: colour, opacity for a full step, its t, the
   // left end of its step when clipped, its cell's exit.
-  vmask<A> pend(false), pend_left_clip(false), prev_valid(false);
+  vmask<A> pend = simd::no_lanes<A>(), pend_left_clip = pend, prev_valid = pend;
   vfloat<A> pr(0.f), pg(0.f), pb(0.f), pa(0.f), pt(0.f), pleft(0.f), pout(0.f);
   // Composites the pending samples of `lanes`; `right_clip`: their successor
   // is invalid, so their step ends at their cell's exit.

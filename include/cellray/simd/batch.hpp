@@ -157,6 +157,21 @@ template <class A> inline xsimd::batch_bool<float, A> to_float_mask(xsimd::batch
   else return xsimd::batch_bool<float, A>(_mm_castsi128_ps(m));
 }
 
+/// Every lane false / every lane true. Hot code uses these, not
+/// `vmask<A>(false)`: xsimd 8.1 builds that from one bool per lane through a
+/// recursive template that g++ 12 leaves as a call on AVX-512 (a 16-argument
+/// function in traversal and kernel loops, ~1% of an isosurface frame).
+template <class Arch> inline vmask<Arch> no_lanes() noexcept {
+  if constexpr (std::is_same_v<Arch, scalar>) return false;
+  else if constexpr (is_avx512<Arch>) return vmask<Arch>(__mmask16(0));
+  else return vfloat<Arch>(0.f) != vfloat<Arch>(0.f);
+}
+template <class Arch> inline vmask<Arch> all_lanes() noexcept {
+  if constexpr (std::is_same_v<Arch, scalar>) return true;
+  else if constexpr (is_avx512<Arch>) return vmask<Arch>(__mmask16(0xFFFF));
+  else return vfloat<Arch>(0.f) == vfloat<Arch>(0.f);
+}
+
 /// Lane i true when bit i of `bits` is set.
 template <class Arch> inline vmask<Arch> mask_from_bits(uint32_t bits) noexcept {
   if constexpr (std::is_same_v<Arch, scalar>) return (bits & 1u) != 0;

@@ -103,7 +103,7 @@ inline CellIsoHit<A> iso_in_window(RayBatch<A> const& r, CellCorners<A, N> const
   using Ops = CellOps<A, N>;
   constexpr float inf = std::numeric_limits<float>::infinity();
   typename Ops::Clip const k = Ops::clip_window(r, c, lanes, t_lo, t_hi);
-  CellIsoHit<A> best{vfloat<A>(inf), vint<A>(-1), vmask<A>(false)};
+  CellIsoHit<A> best{vfloat<A>(inf), vint<A>(-1), simd::no_lanes<A>()};
   if (simd::none(k.hit)) return best;
   if (simd::all(!k.hit || (k.t_in >= t_lo && k.t_out <= t_hi))) return Ops::iso(r, k, c, isos, count, o, param);
   if (N == 8 && o.method == CellIsoMethod::exact) {

@@ -60,7 +60,7 @@ template <class A, int N> struct FirstHitQuery {
 
   bool node_relevant(float vmin, float vmax) const { return isos.overlaps(vmin, vmax); }
   vmask<A> relevant(vfloat<A> const& vmin, vfloat<A> const& vmax) const {
-    vmask<A> m(false);
+    vmask<A> m = simd::no_lanes<A>();
     for (int k = 0; k < isos.count; ++k) m = m || (vfloat<A>(isos.values[k]) >= vmin && vfloat<A>(isos.values[k]) <= vmax);
     return m;
   }

@@ -33,7 +33,7 @@ template <class A, int N> struct OcclusionQuery {
   RayPacket<A> const& r;
   IsoSet const& isos;
   CellIsoOptions const& method;
-  vmask<A> occluded = vmask<A>(false);
+  vmask<A> occluded = simd::no_lanes<A>();
   /// r.tmax for lanes still searching, -inf once occluded (box tests and
   /// stack pops then fail for them).
   vfloat<A> t_hi_ = r.tmax;
@@ -45,7 +45,7 @@ template <class A, int N> struct OcclusionQuery {
 
   bool node_relevant(float vmin, float vmax) const { return isos.overlaps(vmin, vmax); }
   vmask<A> relevant(vfloat<A> const& vmin, vfloat<A> const& vmax) const {
-    vmask<A> m(false);
+    vmask<A> m = simd::no_lanes<A>();
     for (int k = 0; k < isos.count; ++k) m = m || (vfloat<A>(isos.values[k]) >= vmin && vfloat<A>(isos.values[k]) <= vmax);
     return m;
   }

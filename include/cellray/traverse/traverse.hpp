@@ -45,7 +45,7 @@ template <class A> inline vint<A> slot_cells(TreeView const& tree, vint<A> const
 /// Lanes whose [vmin, vmax] overlaps one of the value windows (SPMD node filter).
 template <class A>
 inline vmask<A> windows_overlap(ValueWindows const& w, vfloat<A> const& vmin, vfloat<A> const& vmax) {
-  vmask<A> m(false);
+  vmask<A> m = simd::no_lanes<A>();
   for (int k = 0; k < w.count; ++k) m = m || (vmin <= vfloat<A>(w.hi[k]) && vmax >= vfloat<A>(w.lo[k]));
   return m && vmin <= vmax;
 }
@@ -100,7 +100,7 @@ void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> activ
     Node const& left = tree.nodes[li];
     Node const& right = tree.nodes[ri];
     vfloat<A> tl(0.f), tr(0.f);
-    vmask<A> ml(false), mr(false);
+    vmask<A> ml = simd::no_lanes<A>(), mr = ml;
     if (q.node_relevant(tree.ranges[2 * li], tree.ranges[2 * li + 1]))
       ml = m && box_hit(r, left.lo, left.hi, q.t_lo(), q.t_hi(), tl);
     if (q.node_relevant(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]))
