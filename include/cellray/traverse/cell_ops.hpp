@@ -106,14 +106,16 @@ inline CellIsoHit<A> iso_in_window(RayBatch<A> const& r, CellCorners<A, N> const
   CellIsoHit<A> best{vfloat<A>(inf), vint<A>(-1), simd::no_lanes<A>()};
   if (simd::none(k.hit)) return best;
   if (simd::all(!k.hit || (k.t_in >= t_lo && k.t_out <= t_hi))) return Ops::iso(r, k, c, isos, count, o, param);
-  if (N == 8 && o.method == CellIsoMethod::exact) {
-    Vec3<A> u = param ? *param : Vec3<A>{};
-    CellIsoHit<A> h = Ops::iso(r, k, c, isos, count, o, param ? &u : nullptr, &t_lo);
-    h.hit = h.hit && h.t >= t_lo && h.t <= t_hi;
-    if (param) *param = select<A>(h.hit, u, *param);
-    h.t = simd::select(h.hit, h.t, best.t);
-    h.iso_index = simd::select(simd::to_int_mask(h.hit), h.iso_index, best.iso_index);
-    return h;
+  if constexpr (N == 8) {
+    if (o.method == CellIsoMethod::exact) {
+      Vec3<A> u = param ? *param : Vec3<A>{};
+      CellIsoHit<A> h = Ops::iso(r, k, c, isos, count, o, param ? &u : nullptr, &t_lo);
+      h.hit = h.hit && h.t >= t_lo && h.t <= t_hi;
+      if (param) *param = select<A>(h.hit, u, *param);
+      h.t = simd::select(h.hit, h.t, best.t);
+      h.iso_index = simd::select(simd::to_int_mask(h.hit), h.iso_index, best.iso_index);
+      return h;
+    }
   }
   for (int i = 0; i < count; ++i) {
     Vec3<A> u = param ? *param : Vec3<A>{};
