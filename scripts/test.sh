@@ -39,6 +39,6 @@ stage "ASan+UBSan tests"
 # Reliability (docs/reliability.md): each libFuzzer harness for 30 s (clang,
 # ASan + UBSan), then the concurrency tests under ThreadSanitizer.
 ./scripts/fuzz.sh 30 build-fuzz
-stage "fuzz (build + 3 harnesses x 30 s of CPU, side by side)"
+stage "fuzz (build + 3 x 30 s)"
 ./scripts/tsan.sh build-tsan
 stage "TSan (build + run)"
