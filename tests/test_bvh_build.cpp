@@ -14,6 +14,10 @@
 
 #include "test_bvh_oracle.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_bvh_build {
+
 using namespace cellray;
 using namespace cellray::test;
 
@@ -340,3 +344,5 @@ TEST_CASE("statistics add up and stay within 24 bytes per cell at the default le
     }
   }
 }
+
+}  // namespace test_bvh_build

@@ -11,6 +11,10 @@
 
 #include "test_bvh_oracle.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_bvh_real {
+
 using namespace cellray;
 using namespace cellray::test;
 
@@ -68,3 +72,5 @@ TEST_CASE("real meshes: 84k-tet machine part, flange hexes (wedges skipped), two
     CHECK(refit_ranges(both, {tets, hexes}) == both.ranges());
   }
 }
+
+}  // namespace test_bvh_real

@@ -10,6 +10,10 @@
 
 #include "test_bvh_oracle.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_bvh_refit_plan {
+
 using namespace cellray;
 using namespace cellray::test;
 
@@ -165,3 +169,5 @@ TEST_CASE("refit plan: empty mesh, and plans that do not match the tree or mesh 
   TetMesh const more{view(xyz), view(a.cells), view(val)};
   CHECK_THROWS_AS(refit_ranges(bvh, plan, more, r), InvalidArgument);
 }
+
+}  // namespace test_bvh_refit_plan

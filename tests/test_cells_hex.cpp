@@ -15,6 +15,10 @@
 #include "support/sanitized.hpp"
 #include "support/test_isa.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_cells_hex {
+
 using namespace cellray;
 using cellray::test::CellRunner;
 using cellray::test::HexKind;
@@ -316,3 +320,5 @@ TEST_CASE("hex degenerate input has documented outcomes", "[cells][hex][isa]") {
     CHECK(h.hit == 0);
   }
 }
+
+}  // namespace test_cells_hex

@@ -25,6 +25,10 @@
 #include "support/sheared_lattice.hpp"
 #include "support/test_isa.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_cells_hex_affine {
+
 using namespace cellray;
 using cellray::test::CellRunner;
 using cellray::test::Rng;
@@ -258,3 +262,5 @@ TEST_CASE("mixed parallelepipeds and distorted hexes: shared faces agree bit for
   CHECK(lost[0] == 0);
   CHECK(doubled[0] == 0);
 }
+
+}  // namespace test_cells_hex_affine

@@ -14,6 +14,10 @@
 #include "support/cells_runner.hpp"
 #include "support/test_isa.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_cells_tet {
+
 using namespace cellray;
 using cellray::test::CellRunner;
 using cellray::test::Rng;
@@ -225,3 +229,5 @@ TEST_CASE("shading normal points from high to low values and never NaN", "[cells
   V const f = face_forward<scalar>(V{0.f, 0.f, 1.f}, V{0.f, 0.f, 1.f});
   CHECK(f.z == -1.f);
 }
+
+}  // namespace test_cells_tet

@@ -23,6 +23,10 @@
 #include "support/cells_runner.hpp"
 #include "support/test_isa.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_cells_watertight {
+
 using namespace cellray;
 using cellray::test::CellRunner;
 using cellray::test::Rng;
@@ -407,3 +411,5 @@ TEST_CASE("canonical face order uses all 64 bits of vertex ids", "[cells][watert
   CHECK(shared > 300);
   CHECK(mismatched == 0);
 }
+
+}  // namespace test_cells_watertight

@@ -12,6 +12,10 @@
 
 #include <cellray/io/read_mesh.hpp>
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_io_broken {
+
 using namespace cellray;
 
 namespace {
@@ -173,3 +177,5 @@ TEST_CASE("truncated and corrupted real files fail cleanly or load", "[io][broke
     attempt(v, "p.vtk");
   }
 }
+
+}  // namespace test_io_broken

@@ -15,6 +15,10 @@
 
 #include <cellray/io/read_mesh.hpp>
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_io_dialects {
+
 using namespace cellray;
 
 namespace {
@@ -483,3 +487,5 @@ TEST_CASE("cell_to_point averages the cells around each vertex", "[io]") {
   CHECK(m.with_array("q_avg").value(1) == 2.5f);
   CHECK(r.hex_mesh().cell_count() == 1);
 }
+
+}  // namespace test_io_dialects

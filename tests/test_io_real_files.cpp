@@ -13,6 +13,10 @@
 #include <cellray/io/read_mesh.hpp>
 #include <cellray/mesh/validate.hpp>
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_io_real_files {
+
 using namespace cellray;
 
 namespace {
@@ -229,3 +233,5 @@ TEST_CASE("openfoam/boxturb48_dns.vtk (two point and two cell arrays)", "[io][da
   check_cell(g, "p", -0.0335067, 0.0322536);
   check_views(g);
 }
+
+}  // namespace test_io_real_files

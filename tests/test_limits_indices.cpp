@@ -12,6 +12,10 @@
 
 #include "support/adversarial.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_limits_indices {
+
 // Index arithmetic beyond 2^31 and 2^32, on views whose index values and
 // counts are that large without allocating that much: the arrays are
 // anonymous MAP_NORESERVE mappings (tens of GB of address space, zero pages
@@ -200,3 +204,5 @@ TEST_CASE("a BVH with 64-bit item ids renders the same images as one with 32-bit
   CHECK(render_iso(Scene(m, wide_bvh), cam, iso).rgba == render_iso(Scene(m, narrow_bvh), cam, iso).rgba);
   CHECK(render_dvr(Scene(m, wide_bvh), cam, dvr).rgba == render_dvr(Scene(m, narrow_bvh), cam, dvr).rgba);
 }
+
+}  // namespace test_limits_indices

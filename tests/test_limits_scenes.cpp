@@ -9,6 +9,10 @@
 
 #include "support/brute_force.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_limits_scenes {
+
 // Renders at the edges of their documented input space: isovalues outside
 // the data, zero-size and 1x1 images, extreme fields of view, the eye inside
 // the mesh, meshes around 1e7 and around 1e-7. Where a hit or a miss is
@@ -258,3 +262,5 @@ TEST_CASE("meshes far from the origin (1e7) and tiny ones (1e-7) render like uni
     }
   }
 }
+
+}  // namespace test_limits_scenes

@@ -8,6 +8,10 @@
 
 #include "support/test_isa.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_mesh_cell_boxes {
+
 using namespace cellray;
 
 TEST_CASE("cell boxes and ranges match a scalar loop, NaN cells get the empty range", "[mesh][isa]") {
@@ -49,3 +53,5 @@ TEST_CASE("cell boxes and ranges match a scalar loop, NaN cells get the empty ra
     CHECK(vmax[c] == boxes[c].vmax);
   }
 }
+
+}  // namespace test_mesh_cell_boxes

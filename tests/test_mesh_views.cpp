@@ -13,6 +13,10 @@
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/validate.hpp>
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_mesh_views {
+
 using namespace cellray;
 
 TEST_CASE("mesh views point at the host arrays and check sizes", "[mesh]") {
@@ -139,3 +143,5 @@ TEST_CASE("validate names bad indices, non-finite data, flat and inverted cells"
   CHECK(hrep.inverted.first == 1);
   CHECK(validate(HexMesh{view(flat), view(hi)}).zero_volume.count == 2);
 }
+
+}  // namespace test_mesh_views

@@ -10,6 +10,10 @@
 
 #include "support/test_isa.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_render_basic {
+
 using namespace cellray;
 
 namespace {
@@ -150,3 +154,5 @@ TEST_CASE("render entry points reject bad parameters with a message", "[render]"
   CHECK_THROWS_AS(Camera::look_at({0, 0, 0}, {0, 0, 0}, {0, 1, 0}, 45.f, 8, 8), InvalidArgument);
   CHECK_THROWS_AS(Camera::look_at({0, 0, 1}, {0, 0, 0}, {0, 1, 0}, 180.f, 8, 8), InvalidArgument);
 }
+
+}  // namespace test_render_basic

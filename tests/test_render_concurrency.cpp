@@ -18,6 +18,10 @@
 #include <cellray/mesh/generate.hpp>
 #include <cellray/render/render.hpp>
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_render_concurrency {
+
 // Renders share everything read-only (render.hpp: "any number of renders may
 // run at once on the same parts"). The oracle is the same render run alone:
 // each pixel's computation does not depend on which thread runs its tile, so
@@ -186,3 +190,5 @@ TEST_CASE("renders inside separate TBB arenas and one-thread arenas give the sam
   });
   for (auto const& img : out) CHECK(same_bits(img, ref));
 }
+
+}  // namespace test_render_concurrency

@@ -14,6 +14,10 @@
 
 #include "support/render_fixtures.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_render_dvr {
+
 using namespace cellray;
 
 using test::busy_tf;
@@ -141,3 +145,5 @@ TEST_CASE("DVR gradient shading leaves a flat field unshaded", "[render][dvr][is
   p.shading.ambient = -1.f;
   CHECK_THROWS_AS(render_dvr(scene, cam, p, options()), InvalidArgument);
 }
+
+}  // namespace test_render_dvr

@@ -15,6 +15,10 @@
 #include "support/sanitized.hpp"
 #include "support/sheared_lattice.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_render_hex_affine {
+
 using namespace cellray;
 using namespace cellray::test;
 
@@ -63,3 +67,5 @@ TEST_CASE("fast vs reference: boxturb48_dns (structured hexes)", "[render][refer
   auto const l = load(g.hex_mesh().with_array("enstrophy"));
   iso_vs_reference("boxturb48_dns enstrophy", l->scene(), 0.1f, 0.3f);
 }
+
+}  // namespace test_render_hex_affine

@@ -15,6 +15,10 @@
 #include "support/render_fixtures.hpp"
 #include "support/sanitized.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_render_occlusion {
+
 using namespace cellray;
 
 namespace {
@@ -108,3 +112,5 @@ TEST_CASE("fast vs reference: shadows and ambient occlusion with the default sec
     }
   }
 }
+
+}  // namespace test_render_occlusion

@@ -22,6 +22,10 @@
 #include "support/render_fixtures.hpp"
 #include "support/sanitized.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_render_reference {
+
 using namespace cellray;
 
 using test::busy_tf;
@@ -317,3 +321,5 @@ TEST_CASE("failure modes: NaN scalars and zero-volume cells render as the refere
     CHECK(d.frac_over <= 0.005);
   }
 }
+
+}  // namespace test_render_reference

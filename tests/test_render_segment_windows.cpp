@@ -16,6 +16,10 @@
 
 #include "support/test_isa.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_render_segment_windows {
+
 using namespace cellray;
 
 TEST_CASE("DVR segments with more cells per window than a segment list holds match the reference",
@@ -47,3 +51,5 @@ TEST_CASE("DVR segments with more cells per window than a segment list holds mat
   CHECK(d.rmse < 1.0);
   CHECK(d.max < 4.0);
 }
+
+}  // namespace test_render_segment_windows

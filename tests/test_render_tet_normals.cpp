@@ -14,6 +14,10 @@
 #include "support/render_fixtures.hpp"
 #include "support/sanitized.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_render_tet_normals {
+
 using namespace cellray;
 using namespace cellray::test;
 
@@ -39,3 +43,5 @@ TEST_CASE("fast vs reference: tet normals from the iso query on an offset field 
   CHECK(d.frac_over <= 0.005);
   CHECK(d.max < 64.0);
 }
+
+}  // namespace test_render_tet_normals

@@ -12,6 +12,10 @@
 #include "support/brute_force.hpp"
 #include "support/test_isa.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_traverse_first_hit {
+
 using namespace cellray;
 
 namespace {
@@ -111,3 +115,5 @@ TEST_CASE("first hit: an empty tree finds nothing, and a [tmin, tmax] window is 
   }
   CHECK(continued > 0);
 }
+
+}  // namespace test_traverse_first_hit

@@ -18,6 +18,10 @@
 
 #include "support/test_isa.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_traverse_first_hit_normals {
+
 using namespace cellray;
 
 namespace {
@@ -100,3 +104,5 @@ TEST_CASE("first_hits: analytic normals from the query's gradient match the doub
   // in shading) leaves room for other roundings (SSE without FMA, clang).
   for (Traversal how : {Traversal::packet, Traversal::spmd}) check_normals<8>(mesh, {0.3f, 0.5f}, 1e-4, how);
 }
+
+}  // namespace test_traverse_first_hit_normals

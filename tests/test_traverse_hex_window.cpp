@@ -19,6 +19,10 @@
 #include "support/render_fixtures.hpp"
 #include "support/test_isa.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_traverse_hex_window {
+
 using namespace cellray;
 
 namespace {
@@ -119,3 +123,5 @@ TEST_CASE("hex iso: a transparent surface crossed twice in one cell composites b
   CHECK(d.nonfinite == 0);
   CHECK(d.frac_over <= 0.005);
 }
+
+}  // namespace test_traverse_hex_window

@@ -22,6 +22,10 @@
 
 #include "support/test_isa.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_traverse_occlusion {
+
 using namespace cellray;
 
 namespace {
@@ -198,3 +202,5 @@ TEST_CASE("occlusion: an empty tree, NaN values and empty segments occlude nothi
     for (uint8_t o : occluded_rays(TreeView(bvh), mesh, reversed, q, grouped, test::isa())) CHECK(o == 0);
   }
 }
+
+}  // namespace test_traverse_occlusion

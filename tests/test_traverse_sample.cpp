@@ -18,6 +18,10 @@
 
 #include "support/test_isa.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_traverse_sample {
+
 using namespace cellray;
 
 namespace {
@@ -178,3 +182,5 @@ TEST_CASE("sample groups and traversal variants give identical samples along ray
   check(g.mesh());
   check(t.mesh());
 }
+
+}  // namespace test_traverse_sample

@@ -27,6 +27,10 @@
 #include "support/segment_probe.hpp"
 #include "support/test_isa.hpp"
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_traverse_segment_query {
+
 using namespace cellray;
 using test::SegmentProbeOut;
 
@@ -298,3 +302,5 @@ TEST_CASE("segments: a value window drops only cells transparent along the ray",
   }
   CHECK(kept > 50);
 }
+
+}  // namespace test_traverse_segment_query

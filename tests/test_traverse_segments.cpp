@@ -14,6 +14,10 @@
 
 #include <cellray/traverse/segments.hpp>
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_traverse_segments {
+
 using namespace cellray;
 
 namespace {
@@ -67,3 +71,5 @@ TEST_CASE("segment lists below capacity keep everything and no cut", "[traverse]
   CHECK(q->count[0] == 5);
   CHECK(q->cut[0] == std::numeric_limits<float>::infinity());
 }
+
+}  // namespace test_traverse_segments

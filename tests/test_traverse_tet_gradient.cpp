@@ -17,6 +17,10 @@
 #include <cellray/render/camera.hpp>
 #include <cellray/traverse/first_hit.hpp>
 
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_traverse_tet_gradient {
+
 using namespace cellray;
 
 TEST_CASE("first hit: the tet gradient kept at each hit matches the double reference", "[traverse]") {
@@ -59,3 +63,5 @@ TEST_CASE("first hit: the tet gradient kept at each hit matches the double refer
   INFO("worst relative gradient error " << worst);
   CHECK(hits > 100);  // 143 of the 1728 rays hit
 }
+
+}  // namespace test_traverse_tet_gradient

@@ -3,8 +3,13 @@
 // 77, which ctest reports as skipped (SKIP_RETURN_CODE), so a missing ISA is
 // never a silent pass.
 
+#ifdef CELLRAY_TEST_PREBUILT_CATCH2
+// Debian's compiled Catch2 runner with its main renamed (tests/CMakeLists.txt).
+extern "C" int cellray_catch2_main(int argc, char** argv);
+#else
 #define CATCH_CONFIG_RUNNER
 #include <catch2/catch.hpp>
+#endif
 
 #include <cstdio>
 #include <cstring>
@@ -31,5 +36,11 @@ int main(int argc, char** argv) {
     }
     args.push_back(argv[i]);
   }
+#ifdef CELLRAY_TEST_PREBUILT_CATCH2
+  int const n = int(args.size());
+  args.push_back(nullptr);  // argv[argc] is null, as for a real main
+  return cellray_catch2_main(n, args.data());
+#else
   return Catch::Session().run(int(args.size()), args.data());
+#endif
 }
