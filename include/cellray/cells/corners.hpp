@@ -61,7 +61,7 @@ template <class A> struct PointBatch {
 /// so the loaders store the global vertex id itself when the mesh has at
 /// most 2^31 vertices, and the corner's rank among its cell's ids (0..N-1,
 /// compared on all 64 bits) beyond: the same order, exact for any id.
-namespace detail {
+namespace isa_detail {
 /// Hexes only (CellCorners<A, 8>): `uniform` is true when every lane holds
 /// the same cell (set by broadcast, the packet loader), and `uniform_key`
 /// then holds its ordering keys as scalars, so the kernels take per-cell
@@ -75,9 +75,9 @@ template <> struct UniformKeys<8> {
   bool uniform = false;
   int32_t uniform_key[8];
 };
-}  // namespace detail
+}  // namespace isa_detail
 
-template <class A, int N> struct CellCorners : detail::UniformKeys<N> {
+template <class A, int N> struct CellCorners : isa_detail::UniformKeys<N> {
   vfloat<A> x[N], y[N], z[N], s[N];
   vint<A> id[N];
   Vec3<A> p(int i) const { return {x[i], y[i], z[i]}; }
@@ -101,7 +101,7 @@ template <int N> inline void corner_keys(uint64_t vertex_count, uint64_t const (
   }
 }
 
-namespace detail {
+namespace isa_detail {
 
 template <class A, int N> inline void swap_corners_if(CellCorners<A, N>& c, int i, int j) {
   // Compare-exchange on the id: a sorting network step on whole corners.
@@ -126,7 +126,7 @@ template <class A> inline void sort_tet_corners(CellCorners<A, 4>& c) {
   swap_corners_if(c, 1, 2);
 }
 
-}  // namespace detail
+}  // namespace isa_detail
 
 /// One cell's corners as read by packet traversal before it broadcasts
 /// them: vertex ids, values (NaN when the mesh has none) and ordering keys,
@@ -279,7 +279,7 @@ inline CellCorners<A, N> gather_corners(CellMesh<N> const& mesh, vint<A> const& 
       c.s[i] = simd::load<A>(fs[i]), c.id[i] = simd::load<A>(ids[i]);
     }
   }
-  if constexpr (N == 4) detail::sort_tet_corners(c);
+  if constexpr (N == 4) isa_detail::sort_tet_corners(c);
   return c;
 }
 

@@ -83,7 +83,7 @@ inline constexpr float hex_cubic_step_tol = 1.f / (1 << 23);
 /// hex edge or vertex). Canonical evaluation keeps neighbours consistent.
 inline constexpr float hex_patch_tolerance = 6e-5f;
 
-namespace detail {
+namespace isa_detail {
 
 /// VTK hex faces as cyclic corner lists and corner trilinear coordinates.
 inline constexpr int hex_faces[6][4] = {{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 5, 4},
@@ -374,7 +374,7 @@ template <class A> inline Vec3<A> hex_world_gradient(CellCorners<A, 8> const& c,
   return select<A>(good, g, Vec3<A>{zero, zero, zero});
 }
 
-}  // namespace detail
+}  // namespace isa_detail
 
 /// Ray clip against one hex per lane by its six faces (see the file
 /// comment) for the lanes in `lanes` whose interval meets [t_lo, t_hi] (per
@@ -391,12 +391,12 @@ inline HexClip<A> clip_hex_window(RayBatch<A> const& ray, CellCorners<A, 8> cons
                                   vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
   constexpr float inf = std::numeric_limits<float>::infinity();
   vfloat<A> const zero(0.f);
-  detail::HullAcc<A> acc{vfloat<A>(inf), vfloat<A>(-inf), zero, zero, {zero, zero, zero}, {zero, zero, zero}};
+  isa_detail::HullAcc<A> acc{vfloat<A>(inf), vfloat<A>(-inf), zero, zero, {zero, zero, zero}, {zero, zero, zero}};
   vmask<A> affine = simd::all_lanes<A>();
   for (int f = 0; f < 6; ++f) {
-    detail::PatchCorner<A> q[4];
-    detail::canonical_patch(c, f, q);
-    vmask<A> const para = detail::patch_hits(ray, q, acc);  // not inside &&: for scalar that short-circuits
+    isa_detail::PatchCorner<A> q[4];
+    isa_detail::canonical_patch(c, f, q);
+    vmask<A> const para = isa_detail::patch_hits(ray, q, acc);  // not inside &&: for scalar that short-circuits
     affine = affine && para;
   }
   HexClip<A> r;
@@ -426,16 +426,16 @@ template <class A> inline HexClip<A> clip_hex(RayBatch<A> const& ray, CellCorner
 /// hexes is measured in tests/test_cells_hex.cpp.
 template <class A> inline Located<A> locate_hex(PointBatch<A> const& pts, CellCorners<A, 8> const& c) {
   Located<A> r;
-  r.param = detail::invert_hex(c, pts.p(), detail::centre<A>(), simd::all_lanes<A>(), hex_newton_cap, r.converged);
-  r.value = detail::trilerp<A>(c.s, r.param);
-  r.inside = r.converged && detail::in_unit_cube<A>(r.param, hex_inside_tolerance);
+  r.param = isa_detail::invert_hex(c, pts.p(), isa_detail::centre<A>(), simd::all_lanes<A>(), hex_newton_cap, r.converged);
+  r.value = isa_detail::trilerp<A>(c.s, r.param);
+  r.inside = r.converged && isa_detail::in_unit_cube<A>(r.param, hex_inside_tolerance);
   return r;
 }
 
 /// Analytic gradient of the trilinear field at trilinear coordinates `param`
 /// (e.g. Located::param): J^-T grad_uvw(s). Zero where the map is singular.
 template <class A> inline Vec3<A> gradient_hex(CellCorners<A, 8> const& c, Vec3<A> const& param) {
-  return detail::hex_world_gradient(c, param);
+  return isa_detail::hex_world_gradient(c, param);
 }
 
 /// Central differences of the cell's trilinear field around world point `p`
@@ -447,8 +447,8 @@ template <class A>
 inline Vec3<A> gradient_central_hex(CellCorners<A, 8> const& c, Vec3<A> const& p, Vec3<A> const& param, float h) {
   vfloat<A> const hv(h), zero(0.f), inv(0.5f / h);
   auto value_at = [&](Vec3<A> const& x, vmask<A>& ok) {
-    Vec3<A> const u = detail::invert_hex(c, x, param, simd::all_lanes<A>(), hex_newton_cap, ok);
-    return detail::trilerp<A>(c.s, u);
+    Vec3<A> const u = isa_detail::invert_hex(c, x, param, simd::all_lanes<A>(), hex_newton_cap, ok);
+    return isa_detail::trilerp<A>(c.s, u);
   };
   auto diff = [&](Vec3<A> const& e) {
     vmask<A> ok1, ok2;
@@ -458,7 +458,7 @@ inline Vec3<A> gradient_central_hex(CellCorners<A, 8> const& c, Vec3<A> const& p
   return {diff({hv, zero, zero}), diff({zero, hv, zero}), diff({zero, zero, hv})};
 }
 
-namespace detail {
+namespace isa_detail {
 
 template <class A> struct Cubic {
   vfloat<A> c0, c1, c2, c3;
@@ -540,7 +540,7 @@ inline vfloat<A> first_cubic_root(Cubic<A> const& p, vfloat<A> const& f0, vfloat
   return x;
 }
 
-}  // namespace detail
+}  // namespace isa_detail
 
 /// Exact-method isosurface root in a hex (see the file comment): the first
 /// crossing along the ray of any of `count` isovalues (shared by all lanes),
@@ -591,18 +591,18 @@ inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip
     Vec3<A> u = clip.u_in + vfloat<A>(lam) * du;
     if (any_general) {
       vmask<A> conv;
-      u = detail::invert_hex(c, o + (clip.t_in + vfloat<A>(lam) * dt) * d, u, general, 4, conv);
+      u = isa_detail::invert_hex(c, o + (clip.t_in + vfloat<A>(lam) * dt) * d, u, general, 4, conv);
     }
-    return detail::trilerp<A>(c.s, u);
+    return isa_detail::trilerp<A>(c.s, u);
   };
   vfloat<A> const v1 = on_ray(1.f / 3.f), v2 = on_ray(2.f / 3.f);
   for (int k = 0; k < count; ++k) {
     vfloat<A> const iso(isovalues[k]);
     vfloat<A> const f0 = clip.s_in - iso, f3 = clip.s_out - iso;
-    detail::Cubic<A> const cubic = detail::cubic_through<A>(f0, v1 - iso, v2 - iso, f3);
+    isa_detail::Cubic<A> const cubic = isa_detail::cubic_through<A>(f0, v1 - iso, v2 - iso, f3);
     vfloat<A> lo, hi;
     vmask<A> found;
-    vfloat<A> const lam = detail::first_cubic_root(cubic, f0, f3, valid, start, found, lo, hi);
+    vfloat<A> const lam = isa_detail::first_cubic_root(cubic, f0, f3, valid, start, found, lo, hi);
     if (simd::none(found)) continue;
     vfloat<A> t = simd::max(clip.t_in + lam * dt, t_floor);
     Vec3<A> u = clip.u_in + lam * du;
@@ -611,10 +611,10 @@ inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip
       vfloat<A> const t_lo = clip.t_in + lo * dt, t_hi = clip.t_in + hi * dt;
       for (int s = 0; s < refine_steps; ++s) {
         vmask<A> conv;
-        u = detail::invert_hex(c, o + t * d, u, refine, 3, conv);
+        u = isa_detail::invert_hex(c, o + t * d, u, refine, 3, conv);
         vmask<A> gok;
-        Vec3<A> const g = detail::hex_world_gradient(c, u, &gok);
-        vfloat<A> const f = detail::trilerp<A>(c.s, u) - iso;
+        Vec3<A> const g = isa_detail::hex_world_gradient(c, u, &gok);
+        vfloat<A> const f = isa_detail::trilerp<A>(c.s, u) - iso;
         vfloat<A> const nt = t - f / dot(g, d);
         // The root is inside the bracket by construction: a step past an end
         // (the inverted field and the canonical face value differ by
@@ -624,9 +624,9 @@ inline CellIsoHit<A> iso_root_hex(RayBatch<A> const& ray, HexClip<A> const& clip
         t = simd::select(take, simd::max(simd::min(simd::max(nt, t_lo), t_hi), t_floor), t);
       }
     }
-    // Nearest wins, ties keep the lower index (detail::keep_nearest's rule).
+    // Nearest wins, ties keep the lower index (isa_detail::keep_nearest's rule).
     if (param) *param = select<A>(found && t < h.t, u, *param);
-    detail::keep_nearest<A>(h, found, t, k);
+    isa_detail::keep_nearest<A>(h, found, t, k);
   }
   return h;
 }
@@ -645,12 +645,12 @@ inline CellIsoHit<A> iso_root_hex_neubauer(RayBatch<A> const& ray, HexClip<A> co
   Vec3<A> const o = ray.origin(), d = ray.dir();
   // Paper Fig. 5 interpolates at points on the ray: invert each one (warm
   // start on the parametric segment, 4 Newton iterations).
-  return detail::neubauer_crossings<A>(clip, clip.hit && !has_nan_value(c), isovalues, count, steps,
+  return isa_detail::neubauer_crossings<A>(clip, clip.hit && !has_nan_value(c), isovalues, count, steps,
                                        [&](vfloat<A> const& lam, vmask<A> const& lanes) {
                                          vmask<A> conv;
-                                         Vec3<A> const u = detail::invert_hex(c, o + (clip.t_in + lam * dt) * d,
+                                         Vec3<A> const u = isa_detail::invert_hex(c, o + (clip.t_in + lam * dt) * d,
                                                                               clip.u_in + lam * du, lanes, 4, conv);
-                                         return detail::trilerp<A>(c.s, u);
+                                         return isa_detail::trilerp<A>(c.s, u);
                                        });
 }
 
@@ -661,9 +661,9 @@ template <class A>
 inline CellIsoHit<A> iso_root_hex_neubauer(HexClip<A> const& clip, CellCorners<A, 8> const& c, float const* isovalues,
                                            int count, int steps) {
   Vec3<A> const du = clip.u_out - clip.u_in;
-  return detail::neubauer_crossings<A>(
+  return isa_detail::neubauer_crossings<A>(
       clip, clip.hit && !has_nan_value(c), isovalues, count, steps,
-      [&](vfloat<A> const& lam, vmask<A> const&) { return detail::trilerp<A>(c.s, clip.u_in + lam * du); });
+      [&](vfloat<A> const& lam, vmask<A> const&) { return isa_detail::trilerp<A>(c.s, clip.u_in + lam * du); });
 }
 
 }  // namespace CELLRAY_ISA_NS

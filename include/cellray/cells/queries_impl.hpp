@@ -9,7 +9,7 @@
 
 namespace cellray {
 inline namespace CELLRAY_ISA_NS {
-namespace detail {
+namespace isa_detail {
 
 /// Lane l takes query min(i + l, n - 1): the tail repeats the last query and
 /// its results are dropped.
@@ -153,44 +153,44 @@ inline void run_iso(CellMesh<N> const& mesh, CellSelect const& sel, RayQuery con
   }
 }
 
-}  // namespace detail
+}  // namespace isa_detail
 }  // namespace CELLRAY_ISA_NS
 
 template <class Arch>
 void CellQueries<Arch>::run(TetMesh const& m, CellSelect s, RayQuery const* r, uint64_t n, ClipOut* o) {
-  CELLRAY_ISA_NS::detail::run_clip<Arch>(m, s, r, n, o);
+  CELLRAY_ISA_NS::isa_detail::run_clip<Arch>(m, s, r, n, o);
 }
 template <class Arch>
 void CellQueries<Arch>::run(HexMesh const& m, CellSelect s, RayQuery const* r, uint64_t n, ClipOut* o) {
-  CELLRAY_ISA_NS::detail::run_clip<Arch>(m, s, r, n, o);
+  CELLRAY_ISA_NS::isa_detail::run_clip<Arch>(m, s, r, n, o);
 }
 template <class Arch>
 void CellQueries<Arch>::run(TetMesh const& m, CellSelect s, float const* p, uint64_t n, LocateOut* o) {
-  CELLRAY_ISA_NS::detail::run_locate<Arch>(m, s, p, n, o);
+  CELLRAY_ISA_NS::isa_detail::run_locate<Arch>(m, s, p, n, o);
 }
 template <class Arch>
 void CellQueries<Arch>::run(HexMesh const& m, CellSelect s, float const* p, uint64_t n, LocateOut* o) {
-  CELLRAY_ISA_NS::detail::run_locate<Arch>(m, s, p, n, o);
+  CELLRAY_ISA_NS::isa_detail::run_locate<Arch>(m, s, p, n, o);
 }
 template <class Arch>
 void CellQueries<Arch>::run(TetMesh const& m, CellSelect s, float const* p, uint64_t n, GradientMethod g, float h,
                                  float* o) {
-  CELLRAY_ISA_NS::detail::run_gradient<Arch>(m, s, p, n, g, h, o);
+  CELLRAY_ISA_NS::isa_detail::run_gradient<Arch>(m, s, p, n, g, h, o);
 }
 template <class Arch>
 void CellQueries<Arch>::run(HexMesh const& m, CellSelect s, float const* p, uint64_t n, GradientMethod g, float h,
                                  float* o) {
-  CELLRAY_ISA_NS::detail::run_gradient<Arch>(m, s, p, n, g, h, o);
+  CELLRAY_ISA_NS::isa_detail::run_gradient<Arch>(m, s, p, n, g, h, o);
 }
 template <class Arch>
 void CellQueries<Arch>::run(TetMesh const& m, CellSelect s, RayQuery const* r, uint64_t n, float const* v, int k,
                             CellIsoOptions opt, IsoOut* o) {
-  CELLRAY_ISA_NS::detail::run_iso<Arch>(m, s, r, n, v, k, opt, o);
+  CELLRAY_ISA_NS::isa_detail::run_iso<Arch>(m, s, r, n, v, k, opt, o);
 }
 template <class Arch>
 void CellQueries<Arch>::run(HexMesh const& m, CellSelect s, RayQuery const* r, uint64_t n, float const* v, int k,
                             CellIsoOptions opt, IsoOut* o) {
-  CELLRAY_ISA_NS::detail::run_iso<Arch>(m, s, r, n, v, k, opt, o);
+  CELLRAY_ISA_NS::isa_detail::run_iso<Arch>(m, s, r, n, v, k, opt, o);
 }
 
 }  // namespace cellray

@@ -62,7 +62,7 @@ template <class A> struct CellIsoHit {
   vmask<A> hit;
 };
 
-namespace detail {
+namespace isa_detail {
 
 /// Faces of a tet as corner triples in ascending stored order, and the
 /// corner opposite each.
@@ -157,7 +157,7 @@ inline CellIsoHit<A> neubauer_crossings(CellClip<A> const& clip, vmask<A> const&
   });
 }
 
-}  // namespace detail
+}  // namespace isa_detail
 
 /// clip_tet for the lanes in `lanes` whose interval meets [t_lo, t_hi]
 /// (per lane): `hit` = the line crosses the cell && lanes && t_out >= t_lo &&
@@ -182,7 +182,7 @@ inline CellClip<A> clip_tet_window(RayBatch<A> const& ray, CellCorners<A, 4> con
   Vec3<A> const o = ray.origin(), d = ray.dir();
   Vec3<A> const p[4] = {c.p(0), c.p(1), c.p(2), c.p(3)};
   // Face f = the corners other than f, in ascending stored order
-  // (detail::tet_faces): edges from its first corner and normal e1 x e2.
+  // (isa_detail::tet_faces): edges from its first corner and normal e1 x e2.
   Vec3<A> const e01 = p[1] - p[0], e02 = p[2] - p[0], e03 = p[3] - p[0];
   Vec3<A> const e1[4] = {p[2] - p[1], e02, e01, e01}, e2[4] = {p[3] - p[1], e03, e03, e02};
   Vec3<A> n[4];
@@ -201,7 +201,7 @@ inline CellClip<A> clip_tet_window(RayBatch<A> const& ray, CellCorners<A, 4> con
   vfloat<A> t[4];
   vmask<A> new_in[4], new_out[4];
   for (int f = 0; f < 4; ++f) {
-    Vec3<A> const& a = p[detail::tet_faces[f][0]];
+    Vec3<A> const& a = p[isa_detail::tet_faces[f][0]];
     // num and den with the normal pointing into the cell (times +-1: exact,
     // so both cells of a shared face get the same |t| bits): entering is
     // den > 0, leaving den < 0, origin inside the plane num <= 0.
@@ -226,13 +226,13 @@ inline CellClip<A> clip_tet_window(RayBatch<A> const& ray, CellCorners<A, 4> con
     in_taken = in_taken || new_in[f], out_taken = out_taken || new_out[f];
     if (simd::none(is_in || is_out)) continue;
     // The value where the line crosses the plane, from this face's corners only.
-    Vec3<A> const& a = p[detail::tet_faces[f][0]];
+    Vec3<A> const& a = p[isa_detail::tet_faces[f][0]];
     Vec3<A> const rel = (o + t[f] * d) - a;
     vfloat<A> const nn = dot(n[f], n[f]);
     vfloat<A> const beta = dot(cross(rel, e2[f]), n[f]) / nn;
     vfloat<A> const gamma = dot(cross(e1[f], rel), n[f]) / nn;
-    vfloat<A> const sa = c.s[detail::tet_faces[f][0]];
-    vfloat<A> const s = sa + beta * (c.s[detail::tet_faces[f][1]] - sa) + gamma * (c.s[detail::tet_faces[f][2]] - sa);
+    vfloat<A> const sa = c.s[isa_detail::tet_faces[f][0]];
+    vfloat<A> const s = sa + beta * (c.s[isa_detail::tet_faces[f][1]] - sa) + gamma * (c.s[isa_detail::tet_faces[f][2]] - sa);
     r.s_in = simd::select(is_in, s, r.s_in);
     r.s_out = simd::select(is_out, s, r.s_out);
   }
@@ -256,7 +256,7 @@ inline vfloat<A> interpolate_tet(CellCorners<A, 4> const& c, Vec3<A> const& p, v
   vmask<A> in = simd::all_lanes<A>();
   vfloat<A> w[4];
   for (int f = 0; f < 4; ++f) {
-    detail::TetFace<A> const F = detail::tet_face(c, f);
+    isa_detail::TetFace<A> const F = isa_detail::tet_face(c, f);
     vfloat<A> const dist = dot(F.n, p - F.a);
     vmask<A> const pos = F.side > zero;
     vmask<A> const neg = F.side < zero;
@@ -328,9 +328,9 @@ template <class A> inline Vec3<A> gradient_central_tet(CellCorners<A, 4> const& 
 template <class A>
 inline CellIsoHit<A> iso_root_tet(CellClip<A> const& clip, CellCorners<A, 4> const& c, float const* isovalues, int count) {
   vmask<A> const valid = clip.hit && !has_nan_value(c);
-  return detail::nearest_crossing<A>(isovalues, count, [&](vfloat<A> const& iso, vmask<A>& cross) {
-    cross = valid && detail::mask_xor<A>(clip.s_in >= iso, clip.s_out >= iso);
-    vfloat<A> const lam = detail::clamp01<A>((iso - clip.s_in) / (clip.s_out - clip.s_in));
+  return isa_detail::nearest_crossing<A>(isovalues, count, [&](vfloat<A> const& iso, vmask<A>& cross) {
+    cross = valid && isa_detail::mask_xor<A>(clip.s_in >= iso, clip.s_out >= iso);
+    vfloat<A> const lam = isa_detail::clamp01<A>((iso - clip.s_in) / (clip.s_out - clip.s_in));
     return clip.t_in + lam * (clip.t_out - clip.t_in);
   });
 }
@@ -343,7 +343,7 @@ inline CellIsoHit<A> iso_root_tet_neubauer(RayBatch<A> const& ray, CellClip<A> c
                                            float const* isovalues, int count, int steps) {
   Vec3<A> const o = ray.origin(), d = ray.dir();
   vfloat<A> const dt = clip.t_out - clip.t_in;
-  return detail::neubauer_crossings<A>(clip, clip.hit && !has_nan_value(c), isovalues, count, steps,
+  return isa_detail::neubauer_crossings<A>(clip, clip.hit && !has_nan_value(c), isovalues, count, steps,
                                        [&](vfloat<A> const& lam, vmask<A> const&) {
                                          return interpolate_tet(c, o + (clip.t_in + lam * dt) * d);
                                        });

@@ -30,7 +30,7 @@
 namespace cellray {
 inline namespace CELLRAY_ISA_NS {
 
-namespace detail {
+namespace isa_detail {
 template <class Arch> struct batch_types {
   using f = xsimd::batch<float, Arch>;
   using i = xsimd::batch<int32_t, Arch>;
@@ -45,14 +45,14 @@ template <> struct batch_types<scalar> {
   using mi = bool;
   static constexpr int width = 1;
 };
-}  // namespace detail
+}  // namespace isa_detail
 
-template <class Arch> using vfloat = typename detail::batch_types<Arch>::f;
-template <class Arch> using vint = typename detail::batch_types<Arch>::i;
-template <class Arch> using vmask = typename detail::batch_types<Arch>::m;
-template <class Arch> using vmaski = typename detail::batch_types<Arch>::mi;
+template <class Arch> using vfloat = typename isa_detail::batch_types<Arch>::f;
+template <class Arch> using vint = typename isa_detail::batch_types<Arch>::i;
+template <class Arch> using vmask = typename isa_detail::batch_types<Arch>::m;
+template <class Arch> using vmaski = typename isa_detail::batch_types<Arch>::mi;
 /// Lanes per batch: 1, 4, 8 or 16.
-template <class Arch> inline constexpr int width = detail::batch_types<Arch>::width;
+template <class Arch> inline constexpr int width = isa_detail::batch_types<Arch>::width;
 
 namespace simd {
 

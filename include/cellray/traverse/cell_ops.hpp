@@ -58,7 +58,7 @@ template <class A> struct CellOps<A, 8> {
       vfloat<A> const dt = k.t_out - k.t_in;
       vfloat<A> const lam = simd::select(h.hit, (h.t - k.t_in) / dt, vfloat<A>(0.f));
       vmask<A> conv;
-      Vec3<A> const u = detail::invert_hex(c, r.origin() + simd::select(h.hit, h.t, k.t_in) * r.dir(),
+      Vec3<A> const u = isa_detail::invert_hex(c, r.origin() + simd::select(h.hit, h.t, k.t_in) * r.dir(),
                                            k.u_in + lam * (k.u_out - k.u_in), h.hit, hex_newton_cap, conv);
       *param = select<A>(h.hit, u, *param);
     }

@@ -134,9 +134,9 @@ template <class A, int N> struct SegmentQuery {
     vfloat<A> const l(lam);
     Vec3<A> const guess = k.u_in + l * (k.u_out - k.u_in);
     vmask<A> conv;
-    u = detail::invert_hex(c, ray.origin() + (k.t_in + l * (k.t_out - k.t_in)) * ray.dir(), guess, lanes, 6, conv);
-    u = select<A>(conv || detail::in_unit_cube<A>(u, 0.05f), u, guess);
-    return detail::trilerp<A>(c.s, u);
+    u = isa_detail::invert_hex(c, ray.origin() + (k.t_in + l * (k.t_out - k.t_in)) * ray.dir(), guess, lanes, 6, conv);
+    u = select<A>(conv || isa_detail::in_unit_cube<A>(u, 0.05f), u, guess);
+    return isa_detail::trilerp<A>(c.s, u);
   }
 
   /// `m`: the lanes whose window may cross the cell (its value range is
@@ -157,15 +157,15 @@ template <class A, int N> struct SegmentQuery {
     if constexpr (N == 8) {
       Vec3<A> u1, u2;
       vfloat<A> const v1 = hex_on_ray(ray, c, k, m, 1.f / 3.f, u1), v2 = hex_on_ray(ray, c, k, m, 2.f / 3.f, u2);
-      detail::Cubic<A> const f = detail::cubic_through<A>(k.s_in, v1, v2, k.s_out);
+      isa_detail::Cubic<A> const f = isa_detail::cubic_through<A>(k.s_in, v1, v2, k.s_out);
       cv[0] = f.c0, cv[1] = f.c1, cv[2] = f.c2, cv[3] = f.c3;
       if (gradients) {
-        Vec3<A> const g0 = detail::hex_world_gradient(c, k.u_in), g1 = detail::hex_world_gradient(c, u1);
-        Vec3<A> const g2 = detail::hex_world_gradient(c, u2), g3 = detail::hex_world_gradient(c, k.u_out);
-        detail::Cubic<A> const gx = detail::cubic_through<A>(g0.x, g1.x, g2.x, g3.x);
-        detail::Cubic<A> const gy = detail::cubic_through<A>(g0.y, g1.y, g2.y, g3.y);
-        detail::Cubic<A> const gz = detail::cubic_through<A>(g0.z, g1.z, g2.z, g3.z);
-        detail::Cubic<A> const* gc[3] = {&gx, &gy, &gz};
+        Vec3<A> const g0 = isa_detail::hex_world_gradient(c, k.u_in), g1 = isa_detail::hex_world_gradient(c, u1);
+        Vec3<A> const g2 = isa_detail::hex_world_gradient(c, u2), g3 = isa_detail::hex_world_gradient(c, k.u_out);
+        isa_detail::Cubic<A> const gx = isa_detail::cubic_through<A>(g0.x, g1.x, g2.x, g3.x);
+        isa_detail::Cubic<A> const gy = isa_detail::cubic_through<A>(g0.y, g1.y, g2.y, g3.y);
+        isa_detail::Cubic<A> const gz = isa_detail::cubic_through<A>(g0.z, g1.z, g2.z, g3.z);
+        isa_detail::Cubic<A> const* gc[3] = {&gx, &gy, &gz};
         for (int a = 0; a < 3; ++a) cg[a][0] = gc[a]->c0, cg[a][1] = gc[a]->c1, cg[a][2] = gc[a]->c2, cg[a][3] = gc[a]->c3;
       }
     } else if (gradients) {
