@@ -106,7 +106,9 @@ def winners_markdown(t, kind, out):
         return
     out.append(f"\n{kind}: the fastest variant in {total} (mesh, ISA, threads) cases: " +
                ", ".join(f"{k} {wins[k]}" for k in VARIANTS) + ". SPMD or hybrid more than 5% ahead of packet: " +
-               ("; ".join(beats) if beats else "nowhere") + ".")
+               ("; ".join(beats) if beats else "nowhere") + ". At sse4 (4 lanes) hybrid never hands a subtree "
+               "to SPMD (its default threshold is a quarter of the lanes, one lane), so it runs the packet code there: "
+               "the sse4 packet/hybrid differences are the measurement's noise.")
 
 
 def samples_markdown(rows, out):
