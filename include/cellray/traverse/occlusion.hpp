@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 
 #include "cell_ops.hpp"
 #include "first_hit.hpp"
@@ -110,6 +111,18 @@ inline vmask<A> occluded_in(TreeView const& tree, CellMesh<N> const& mesh, RayPa
   return q.occluded && active;
 }
 
+/// Lane sets of K packets of W rays in one word: bit k * W + l is lane l of
+/// packet k. One integer to copy, mask and test per stack entry (K arrays
+/// of 32-bit masks were stored lane by lane and reloaded as one vector: a
+/// store-forwarding stall on every stack pop).
+template <class A, int K> using LaneSet = std::conditional_t<K * width<A> <= 32, uint32_t, uint64_t>;
+
+/// Lanes of packet k in a lane set.
+template <class A, int K> inline uint32_t packet_lanes(LaneSet<A, K> s, int k) {
+  constexpr int W = width<A>;
+  return uint32_t(s >> (k * W)) & uint32_t(W >= 32 ? ~0u : (1u << W) - 1u);
+}
+
 /// (cell, ray) pairs of tets collected W at a time and clipped together,
 /// one cell and one ray per lane: a cell's box is usually met by 1 to 3 of
 /// a group's incoherent rays (2.2 of 8 lanes measured on component8's AO
@@ -121,36 +134,41 @@ inline vmask<A> occluded_in(TreeView const& tree, CellMesh<N> const& mesh, RayPa
 /// test_render_occlusion.cpp check them bit for bit).
 template <class A, int K> struct TetPairs {
   static constexpr int W = width<A>;
+  using Lanes = LaneSet<A, K>;
   // 2 W slots: add() writes a cell's corners to W slots from slot n < W with
   // one broadcast store per component (not one scalar store per pair);
   // clip() takes slots [0, W) and the rest move down.
   alignas(64) float x[4][2 * W], y[4][2 * W], z[4][2 * W], s[4][2 * W];
   alignas(64) int32_t id[4][2 * W];
   alignas(64) float ray[8][2 * W];  ///< ox oy oz dx dy dz tmin tmax
-  uint16_t owner[2 * W];            ///< packet * W + lane
+  uint8_t owner[2 * W];             ///< packet * W + lane: its bit in a lane set
   int n = 0;
 
   /// Adds the pairs of one tet (ordered corners `sc`, positions `xyz`) with
   /// the lanes `lanes` of packet `k` (whose rays' components are `rays`);
   /// clips W pairs once W are held.
   void add(float const* xyz, ScalarCorners<4> const& sc, float const (&rays)[8][W], int k, uint32_t lanes,
-           uint32_t (&pending)[K], IsoSet const& isos, CellIsoOptions const& method) {
+           Lanes& pending, IsoSet const& isos, CellIsoOptions const& method) {
+    // A local count: the stores below may alias the member (int32_t id[]),
+    // which made g++ reload it after every store.
+    int m = n;
     for (int q = 0; q < 4; ++q) {
       float const* p = xyz + 3 * sc.v[q];
-      simd::store(x[q] + n, vfloat<A>(p[0]));
-      simd::store(y[q] + n, vfloat<A>(p[1]));
-      simd::store(z[q] + n, vfloat<A>(p[2]));
-      simd::store(s[q] + n, vfloat<A>(sc.s[q]));
-      simd::store(id[q] + n, vint<A>(sc.key[q]));
+      simd::store(x[q] + m, vfloat<A>(p[0]));
+      simd::store(y[q] + m, vfloat<A>(p[1]));
+      simd::store(z[q] + m, vfloat<A>(p[2]));
+      simd::store(s[q] + m, vfloat<A>(sc.s[q]));
+      simd::store(id[q] + m, vint<A>(sc.key[q]));
     }
     for (uint32_t b = lanes; b; b &= b - 1) {
       int const l = __builtin_ctz(b);
-      for (int q = 0; q < 8; ++q) ray[q][n] = rays[q][l];
-      owner[n++] = uint16_t(k * W + l);
+      for (int q = 0; q < 8; ++q) ray[q][m] = rays[q][l];
+      owner[m++] = uint8_t(k * W + l);
     }
-    if (n < W) return;
+    n = m;
+    if (m < W) return;
     clip(W, pending, isos, method);
-    n -= W;
+    n = m - W;
     if (!n) return;
     for (int q = 0; q < 4; ++q) {
       simd::store(x[q], simd::load<A>(x[q] + W)), simd::store(y[q], simd::load<A>(y[q] + W));
@@ -162,16 +180,16 @@ template <class A, int K> struct TetPairs {
   }
 
   /// Clips the pairs held and clears the lanes of occluded rays in `pending`.
-  void flush(uint32_t (&pending)[K], IsoSet const& isos, CellIsoOptions const& method) {
+  void flush(Lanes& pending, IsoSet const& isos, CellIsoOptions const& method) {
     if (n) clip(n, pending, isos, method);
     n = 0;
   }
 
   /// Clips the pairs in slots [0, m), m <= W, and clears the lanes of
   /// occluded rays in `pending`.
-  void clip(int m, uint32_t (&pending)[K], IsoSet const& isos, CellIsoOptions const& method) {
+  void clip(int m, Lanes& pending, IsoSet const& isos, CellIsoOptions const& method) {
     uint32_t live = 0;
-    for (int i = 0; i < m; ++i) live |= (pending[owner[i] / W] >> (owner[i] % W) & 1u) << i;
+    for (int i = 0; i < m; ++i) live |= uint32_t(pending >> owner[i] & 1u) << i;
     if (!live) return;
     CellCorners<A, 4> c;
     for (int j = 0; j < 4; ++j) {
@@ -183,10 +201,7 @@ template <class A, int K> struct TetPairs {
     vmask<A> const lanes = simd::mask_from_bits<A>(live);
     CellIsoHit<A> const h =
         iso_in_window(r, c, lanes, simd::load<A>(ray[6]), simd::load<A>(ray[7]), isos.values, isos.count, method);
-    for (uint32_t b = simd::movemask(h.hit && lanes); b; b &= b - 1) {
-      int const o = owner[__builtin_ctz(b)];
-      pending[o / W] &= ~(1u << (o % W));
-    }
+    for (uint32_t b = simd::movemask(h.hit && lanes); b; b &= b - 1) pending &= ~(Lanes(1) << owner[__builtin_ctz(b)]);
   }
 };
 
@@ -196,37 +211,41 @@ template <class A, int K> struct TetPairs {
 /// pairs of sparse packets are clipped W at a time, TetPairs). For
 /// incoherent rays leaving one pixel block (AO), K packets of W rays visit
 /// nearly the same nodes one by one; together they pay the traversal and
-/// the corner reads once. `pending[k]`: on entry the lanes of packet k to
-/// trace, on return those not occluded (occluded = entry bits minus return
-/// bits). The answer per lane is OcclusionQuery's. No value array: nothing
-/// occluded.
+/// the corner reads once. `pending_rays[k]`: on entry the lanes of packet k
+/// to trace, on return those not occluded (occluded = entry bits minus
+/// return bits). The answer per lane is OcclusionQuery's. No value array:
+/// nothing occluded. K x W <= 64.
 template <class A, int K, int N>
 void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A> const (&r)[K],
-                      uint32_t (&pending)[K], IsoSet const& isos, CellIsoOptions const& method) {
+                      uint32_t (&pending_rays)[K], IsoSet const& isos, CellIsoOptions const& method) {
   constexpr int W = width<A>;
+  static_assert(K * W <= 64, "one lane set holds at most 64 rays");
+  using Lanes = LaneSet<A, K>;
   if (tree.empty() || !mesh.values()) return;
+  Lanes pending = 0;
+  for (int k = 0; k < K; ++k) pending |= Lanes(pending_rays[k]) << (k * W);
   struct Entry {
     uint32_t node;
-    uint32_t lanes[K];  ///< lanes of each packet that entered the node's box
+    Lanes lanes;  ///< rays that entered the node's box
+  };
+  // The lanes of `from` whose rays enter node ni's box.
+  auto const enter = [&](uint32_t ni, Lanes from) {
+    Node const& node = tree.nodes[ni];
+    Lanes in = 0;
+    for (int k = 0; k < K; ++k) {
+      uint32_t const lanes = packet_lanes<A, K>(from, k);
+      if (!lanes) continue;
+      vfloat<A> tn;
+      in |= Lanes(simd::movemask(simd::mask_from_bits<A>(lanes) &&
+                                 box_hit(r[k], node.lo, node.hi, r[k].tmin, r[k].tmax, tn)))
+            << (k * W);
+    }
+    return in;
   };
   Entry stack[traversal_stack_size];
   int sp = 0;
-  auto const enter = [&](uint32_t ni, uint32_t const* from, Entry& e) {
-    Node const& node = tree.nodes[ni];
-    uint32_t any = 0;
-    e.node = ni;
-    for (int k = 0; k < K; ++k) {
-      e.lanes[k] = 0;
-      if (!from[k]) continue;
-      vfloat<A> tn;
-      e.lanes[k] = simd::movemask(simd::mask_from_bits<A>(from[k]) &&
-                                  box_hit(r[k], node.lo, node.hi, r[k].tmin, r[k].tmax, tn));
-      any |= e.lanes[k];
-    }
-    return any != 0;
-  };
   if (!isos.overlaps(tree.ranges[0], tree.ranges[1])) return;
-  if (enter(0, pending, stack[0])) sp = 1;
+  if (Lanes const in = enter(0, pending)) stack[sp++] = {0, in};
   // Tets: the rays' components per lane, for the pairs.
   TetPairs<A, K> pairs;
   alignas(64) float rays[N == 4 ? K : 1][8][W];
@@ -236,11 +255,11 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
       for (int j = 0; j < 8; ++j) simd::store(rays[k][j], *comp[j]);
     }
   while (sp > 0) {
-    Entry e = stack[--sp];
-    uint32_t any = 0;
-    for (int k = 0; k < K; ++k) any |= e.lanes[k] &= pending[k];  // occluded since the push: done
-    if (!any) continue;
-    Node const& node = tree.nodes[e.node];
+    --sp;
+    uint32_t const ni = stack[sp].node;
+    Lanes const entered = stack[sp].lanes & pending;  // occluded since the push: done
+    if (!entered) continue;
+    Node const& node = tree.nodes[ni];
     if (node.is_leaf()) {
       float const* xyz = mesh.positions();
       uint64_t const first = node.first_item();
@@ -252,16 +271,16 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
         corner_box(xyz, sc, lo, hi);
         // The box against every packet first: most cells are met by none,
         // and then cost no corner ordering (nor, for hexes, broadcast).
+        Lanes const live = entered & pending;
         uint32_t in[K], any_in = 0;
         for (int k = 0; k < K; ++k) {
-          uint32_t const live = e.lanes[k] & pending[k];
+          uint32_t const lanes = packet_lanes<A, K>(live, k);
           in[k] = 0;
-          if (!live) continue;
+          if (!lanes) continue;
           vfloat<A> tn;
-          in[k] = simd::movemask(simd::mask_from_bits<A>(live) && box_hit(r[k], lo, hi, r[k].tmin, r[k].tmax, tn));
+          in[k] = simd::movemask(simd::mask_from_bits<A>(lanes) && box_hit(r[k], lo, hi, r[k].tmin, r[k].tmax, tn));
           any_in |= in[k];
         }
-        uint32_t left = 0;
         if (any_in) {
           order_corners(mesh.vertex_count(), sc);
           if constexpr (N == 4) {
@@ -274,25 +293,24 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
               vmask<A> const lanes = simd::mask_from_bits<A>(in[k]);
               CellIsoHit<A> const h =
                   iso_in_window(ray_batch(r[k]), c, lanes, r[k].tmin, r[k].tmax, isos.values, isos.count, method);
-              pending[k] &= ~simd::movemask(h.hit && lanes);
+              pending &= ~(Lanes(simd::movemask(h.hit && lanes)) << (k * W));
             }
           }
         }
-        for (int k = 0; k < K; ++k) left |= e.lanes[k] & pending[k];
-        if (!left) break;
+        if (!(entered & pending)) break;
       }
       continue;
     }
     uint32_t const li = node.left(), ri = node.right();
-    Entry el, er;
-    bool const hl = isos.overlaps(tree.ranges[2 * li], tree.ranges[2 * li + 1]) && enter(li, e.lanes, el);
-    bool const hr = isos.overlaps(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]) && enter(ri, e.lanes, er);
+    Lanes const hl = isos.overlaps(tree.ranges[2 * li], tree.ranges[2 * li + 1]) ? enter(li, entered) : 0;
+    Lanes const hr = isos.overlaps(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]) ? enter(ri, entered) : 0;
     // The builders cap the depth at MinMaxBvh::max_depth, so the stack holds.
     // Any order finds the same answers; the left child is taken first.
-    if (hr) stack[sp++] = er;
-    if (hl) stack[sp++] = el;
+    if (hr) stack[sp++] = {ri, hr};
+    if (hl) stack[sp++] = {li, hl};
   }
   if constexpr (N == 4) pairs.flush(pending, isos, method);
+  for (int k = 0; k < K; ++k) pending_rays[k] = packet_lanes<A, K>(pending, k);
 }
 
 /// Direction bin of a ray for regrouping incoherent rays: the cube-map face
