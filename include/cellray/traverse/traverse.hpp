@@ -81,42 +81,49 @@ void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> activ
     // By reference (no copy of the entry's vector): every read of `e`
     // comes before the pushes below reuse its slot.
     Entry const& e = stack[--sp];
-    uint32_t const ni = e.node;
-    Node const& node = tree.nodes[ni];
-    vmask<A> const m = simd::mask_from_bits<A>(e.lanes) && e.t_enter <= q.t_hi() * slack;
+    uint32_t ni = e.node;
+    vmask<A> m = simd::mask_from_bits<A>(e.lanes) && e.t_enter <= q.t_hi() * slack;
     if (simd::none(m)) continue;
-    if constexpr (!std::is_same_v<A, scalar>) {
-      if (hybrid_threshold > 0 && popcount<A>(m) < hybrid_threshold) {
-        traverse_spmd<A>(tree, r, m, q, ni);
-        continue;
+    // Down the tree without the stack while a child is entered: the nearer
+    // child goes on at once (a push and pop of it would be the next step on
+    // the dependent chain anyway), the farther one is pushed.
+    while (true) {
+      Node const& node = tree.nodes[ni];
+      if constexpr (!std::is_same_v<A, scalar>) {
+        if (hybrid_threshold > 0 && popcount<A>(m) < hybrid_threshold) {
+          traverse_spmd<A>(tree, r, m, q, ni);
+          break;
+        }
       }
-    }
-    if (node.is_leaf()) {
-      q.leaf(node.first_item(), node.item_count(), m);
-      if (q.done()) return;
-      continue;
-    }
-    uint32_t const li = node.left(), ri = node.right();
-    Node const& left = tree.nodes[li];
-    Node const& right = tree.nodes[ri];
-    vfloat<A> tl(0.f), tr(0.f);
-    vmask<A> ml = simd::no_lanes<A>(), mr = ml;
-    if (q.node_relevant(tree.ranges[2 * li], tree.ranges[2 * li + 1]))
-      ml = m && box_hit(r, left.lo, left.hi, q.t_lo(), q.t_hi(), tl);
-    if (q.node_relevant(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]))
-      mr = m && box_hit(r, right.lo, right.hi, q.t_lo(), q.t_hi(), tr);
-    uint32_t const bl = simd::movemask(ml), br = simd::movemask(mr);
-    // The builders cap the depth at MinMaxBvh::max_depth, so the stack holds.
-    if (bl && br) {
-      // Nearer child first: the one most of the lanes that enter both enter first.
-      bool const left_first = popcount<A>(ml && mr && tl <= tr) * 2 >= popcount<A>(ml && mr);
-      Entry const el{tl, li, bl}, er{tr, ri, br};
-      stack[sp++] = left_first ? er : el;
-      stack[sp++] = left_first ? el : er;
-    } else if (bl) {
-      stack[sp++] = Entry{tl, li, bl};
-    } else if (br) {
-      stack[sp++] = Entry{tr, ri, br};
+      if (node.is_leaf()) {
+        q.leaf(node.first_item(), node.item_count(), m);
+        if (q.done()) return;
+        break;
+      }
+      uint32_t const li = node.left(), ri = node.right();
+      Node const& left = tree.nodes[li];
+      Node const& right = tree.nodes[ri];
+      vfloat<A> tl(0.f), tr(0.f);
+      vmask<A> ml = simd::no_lanes<A>(), mr = ml;
+      if (q.node_relevant(tree.ranges[2 * li], tree.ranges[2 * li + 1]))
+        ml = m && box_hit(r, left.lo, left.hi, q.t_lo(), q.t_hi(), tl);
+      if (q.node_relevant(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]))
+        mr = m && box_hit(r, right.lo, right.hi, q.t_lo(), q.t_hi(), tr);
+      uint32_t const bl = simd::movemask(ml), br = simd::movemask(mr);
+      // The builders cap the depth at MinMaxBvh::max_depth, so the stack holds.
+      if (bl && br) {
+        // Nearer child first: the one most of the lanes that enter both enter first.
+        bool const left_first = popcount<A>(ml && mr && tl <= tr) * 2 >= popcount<A>(ml && mr);
+        stack[sp++] = left_first ? Entry{tr, ri, br} : Entry{tl, li, bl};
+        ni = left_first ? li : ri;
+        m = left_first ? ml : mr;
+      } else if (bl) {
+        ni = li, m = ml;
+      } else if (br) {
+        ni = ri, m = mr;
+      } else {
+        break;
+      }
     }
   }
 }
