@@ -256,58 +256,66 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
     }
   while (sp > 0) {
     --sp;
-    uint32_t const ni = stack[sp].node;
-    Lanes const entered = stack[sp].lanes & pending;  // occluded since the push: done
+    uint32_t ni = stack[sp].node;
+    Lanes entered = stack[sp].lanes & pending;  // occluded since the push: done
     if (!entered) continue;
+    // Down to a leaf without the stack while a child is entered (as
+    // traverse_packet): any order finds the same answers; the left child is
+    // taken first, the right one pushed when both are entered.
+    bool reached = true;
+    while (!tree.nodes[ni].is_leaf()) {
+      uint32_t const li = tree.nodes[ni].left(), ri = tree.nodes[ni].right();
+      Lanes const hl = isos.overlaps(tree.ranges[2 * li], tree.ranges[2 * li + 1]) ? enter(li, entered) : 0;
+      Lanes const hr = isos.overlaps(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]) ? enter(ri, entered) : 0;
+      // The builders cap the depth at MinMaxBvh::max_depth, so the stack holds.
+      if (hl && hr) stack[sp++] = {ri, hr};
+      if (hl) ni = li, entered = hl;
+      else if (hr) ni = ri, entered = hr;
+      else {
+        reached = false;
+        break;
+      }
+    }
+    if (!reached) continue;
     Node const& node = tree.nodes[ni];
-    if (node.is_leaf()) {
-      float const* xyz = mesh.positions();
-      uint64_t const first = node.first_item();
-      for (uint64_t i = first; i < first + node.item_count(); ++i) {
-        ScalarCorners<N> sc;
-        read_corner_values(mesh, tree.item(i), sc);
-        if (!isos.overlaps(sc.lo, sc.hi)) continue;  // false for NaN
-        float lo[3], hi[3];
-        corner_box(xyz, sc, lo, hi);
-        // The box against every packet first: most cells are met by none,
-        // and then cost no corner ordering (nor, for hexes, broadcast).
-        Lanes const live = entered & pending;
-        uint32_t in[K], any_in = 0;
-        for (int k = 0; k < K; ++k) {
-          uint32_t const lanes = packet_lanes<A, K>(live, k);
-          in[k] = 0;
-          if (!lanes) continue;
-          vfloat<A> tn;
-          in[k] = simd::movemask(simd::mask_from_bits<A>(lanes) && box_hit(r[k], lo, hi, r[k].tmin, r[k].tmax, tn));
-          any_in |= in[k];
-        }
-        if (any_in) {
-          order_corners(mesh.vertex_count(), sc);
-          if constexpr (N == 4) {
-            for (int k = 0; k < K; ++k)
-              if (in[k]) pairs.add(xyz, sc, rays[k], k, in[k], pending, isos, method);
-          } else {
-            CellCorners<A, N> const c = broadcast<A, N>(mesh, sc);
-            for (int k = 0; k < K; ++k) {
-              if (!in[k]) continue;
-              vmask<A> const lanes = simd::mask_from_bits<A>(in[k]);
-              CellIsoHit<A> const h =
-                  iso_in_window(ray_batch(r[k]), c, lanes, r[k].tmin, r[k].tmax, isos.values, isos.count, method);
-              pending &= ~(Lanes(simd::movemask(h.hit && lanes)) << (k * W));
-            }
+    float const* xyz = mesh.positions();
+    uint64_t const first = node.first_item();
+    for (uint64_t i = first; i < first + node.item_count(); ++i) {
+      ScalarCorners<N> sc;
+      read_corner_values(mesh, tree.item(i), sc);
+      if (!isos.overlaps(sc.lo, sc.hi)) continue;  // false for NaN
+      float lo[3], hi[3];
+      corner_box(xyz, sc, lo, hi);
+      // The box against every packet first: most cells are met by none,
+      // and then cost no corner ordering (nor, for hexes, broadcast).
+      Lanes const live = entered & pending;
+      uint32_t in[K], any_in = 0;
+      for (int k = 0; k < K; ++k) {
+        uint32_t const lanes = packet_lanes<A, K>(live, k);
+        in[k] = 0;
+        if (!lanes) continue;
+        vfloat<A> tn;
+        in[k] = simd::movemask(simd::mask_from_bits<A>(lanes) && box_hit(r[k], lo, hi, r[k].tmin, r[k].tmax, tn));
+        any_in |= in[k];
+      }
+      if (any_in) {
+        order_corners(mesh.vertex_count(), sc);
+        if constexpr (N == 4) {
+          for (int k = 0; k < K; ++k)
+            if (in[k]) pairs.add(xyz, sc, rays[k], k, in[k], pending, isos, method);
+        } else {
+          CellCorners<A, N> const c = broadcast<A, N>(mesh, sc);
+          for (int k = 0; k < K; ++k) {
+            if (!in[k]) continue;
+            vmask<A> const lanes = simd::mask_from_bits<A>(in[k]);
+            CellIsoHit<A> const h =
+                iso_in_window(ray_batch(r[k]), c, lanes, r[k].tmin, r[k].tmax, isos.values, isos.count, method);
+            pending &= ~(Lanes(simd::movemask(h.hit && lanes)) << (k * W));
           }
         }
-        if (!(entered & pending)) break;
       }
-      continue;
+      if (!(entered & pending)) break;
     }
-    uint32_t const li = node.left(), ri = node.right();
-    Lanes const hl = isos.overlaps(tree.ranges[2 * li], tree.ranges[2 * li + 1]) ? enter(li, entered) : 0;
-    Lanes const hr = isos.overlaps(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]) ? enter(ri, entered) : 0;
-    // The builders cap the depth at MinMaxBvh::max_depth, so the stack holds.
-    // Any order finds the same answers; the left child is taken first.
-    if (hr) stack[sp++] = {ri, hr};
-    if (hl) stack[sp++] = {li, hl};
   }
   if constexpr (N == 4) pairs.flush(pending, isos, method);
   for (int k = 0; k < K; ++k) pending_rays[k] = packet_lanes<A, K>(pending, k);
