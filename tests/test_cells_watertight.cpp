@@ -351,8 +351,8 @@ void report(char const* name, CellRunner const& run, std::array<Stats, 3> const&
 // counts exactly). Bounds hold for every build measured: g++ 12 (default and
 // -ffp-contract=off) and clang 14, each ISA, this file alone or in the
 // stage's unity TU, and with the aimed point moved exactly onto the vertex
-// or edge (the worst any rounding can do; g++'s misfolding, see `rounded`,
-// came close: 20 of 60 vertex rays doubled).
+// or edge (a stress case for rounding: far more rays double there; g++'s
+// misfolding, see `rounded`, came close: 20 of 60 vertex rays doubled).
 TEST_CASE("watertight: generated tets and hexes", "[cells][watertight][isa]") {
   CellRunner const run{false, test::isa()};
   auto const tets = generate_tets(3000, 3, 0.3f);
