@@ -35,9 +35,52 @@ namespace {
 
 struct Stats {
   int rays = 0, samples = 0, gaps = 0, doubles = 0, chain_gaps = 0, chain_overlaps = 0;
+  int aimed_gaps = 0, aimed_doubles = 0;  // of gaps, doubles: at the aimed point (the last sample of a ray)
   int aimed = 0, lost = 0, duplicated = 0, tangent_pairs = 0, excluded = 0, hull = 0;
   double max_gap = 0, max_overlap = 0;
 };
+
+/// `x` rounded to float, as a value the optimiser cannot trace back to `x`.
+/// g++ 12.2 miscompiles `double(float(x))` at -O2 and up once its SLP
+/// vectoriser packs two such lanes: value numbering (fre5) folds the vector
+/// round trip `(vector double)(vector float) v` back to `v`. This file, in
+/// the cells stage's unity TU, then sampled (and gave the double reference)
+/// the unrounded double ray instead of the float ray the kernels saw -- aimed
+/// exactly through the vertex, where several cells claim a point -- and
+/// measured 20 of 1980 vertex samples in two cells instead of 3-9. A volatile
+/// load is opaque: what is converted back is the float itself.
+float rounded(double x) {
+  float volatile const f = float(x);
+  return f;
+}
+
+/// The float ray the kernels see (test::to_query), made opaque (see rounded).
+RayQuery float_ray(glm::dvec3 const& o, glm::dvec3 const& d) {
+  return {rounded(o.x), rounded(o.y), rounded(o.z), rounded(d.x), rounded(d.y), rounded(d.z)};
+}
+
+/// `g` with each hex's corners re-listed by one of 8 rotations of the cube
+/// (about its vertical axis, optionally turned upside down): the same cells,
+/// still positively oriented VTK hexes. The lattice lists both hexes of a
+/// shared face with its corners in the same rotation, which would hide a
+/// broken canonical face order (tried: patches taken in the cells' own
+/// corner order went unnoticed on the unrotated lattice).
+GeneratedMesh<8> rotated_hexes(GeneratedMesh<8> g, uint64_t seed) {
+  static constexpr int spin[4][8] = {
+      {0, 1, 2, 3, 4, 5, 6, 7}, {1, 2, 3, 0, 5, 6, 7, 4}, {2, 3, 0, 1, 6, 7, 4, 5}, {3, 0, 1, 2, 7, 4, 5, 6}};
+  static constexpr int upside_down[8] = {4, 7, 6, 5, 0, 3, 2, 1};
+  Rng rng(seed);
+  for (size_t c = 0; c < g.cells.size(); c += 8) {
+    uint32_t old[8];
+    std::copy_n(&g.cells[c], 8, old);
+    uint64_t const r = rng.next() % 8;
+    for (int k = 0; k < 8; ++k) {
+      int const i = spin[r % 4][k];
+      g.cells[c + size_t(k)] = old[r < 4 ? i : upside_down[i]];
+    }
+  }
+  return g;
+}
 
 template <int N> struct Boxes {
   std::vector<glm::vec3> lo, hi;
@@ -180,10 +223,10 @@ std::array<Stats, 3> measure(CellRunner const& run, CellMesh<N> const& m, int ra
       double iso_value;
       aim(rng, m, topo, kind, target, iso_value);
       glm::dvec3 const d = rng.direction();
-      RayQuery const q = test::to_query(target - 3.0 * d, d);
+      RayQuery const q = float_ray(target - 3.0 * d, d);
       std::fill(rq.begin(), rq.end(), q);
       run.clip(m, {all.data(), 0}, rq.data(), nc, clip.data());
-      float const isof[1] = {float(iso_value)};
+      float const isof[1] = {rounded(iso_value)};
       run.iso(m, {all.data(), 0}, rq.data(), nc, isof, 1, {}, iso.data());
       ++st.rays;
       // Chain of intervals.
@@ -206,7 +249,7 @@ std::array<Stats, 3> measure(CellRunner const& run, CellMesh<N> const& m, int ra
       std::vector<float> pts;
       for (int s = 0; s <= 32; ++s) {
         double const t = s == 32 ? 3.0 : iv[0].first + (span * (s + 0.5)) / 32;
-        pts.insert(pts.end(), {float(q.ox + t * q.dx), float(q.oy + t * q.dy), float(q.oz + t * q.dz)});
+        pts.insert(pts.end(), {rounded(q.ox + t * q.dx), rounded(q.oy + t * q.dy), rounded(q.oz + t * q.dz)});
       }
       for (size_t s = 0; s < pts.size() / 3; ++s) {
         glm::vec3 const p(pts[3 * s], pts[3 * s + 1], pts[3 * s + 2]);
@@ -227,9 +270,10 @@ std::array<Stats, 3> measure(CellRunner const& run, CellMesh<N> const& m, int ra
           for (uint32_t k : cand) in_ref = in_ref || ref::locate(ref::load(m, k), glm::dvec3(p)).inside;
           if (!in_ref) continue;
           ++st.gaps;
+          st.aimed_gaps += s == 32;
         }
         ++st.samples;
-        if (inside > 1) ++st.doubles;
+        if (inside > 1) ++st.doubles, st.aimed_doubles += s == 32;
       }
       // Iso crossings at the aimed point (see above).
       ref::Ray const rr = test::to_ref(q);
@@ -269,11 +313,12 @@ void report(char const* name, CellRunner const& run, std::array<Stats, 3> const&
   char const* kinds[3] = {"face", "edge", "vertex"};
   for (int k = 0; k < 3; ++k) {
   Stats const& s = all[size_t(k)];
-  std::printf("watertight %-16s %-6s %-6s: %d rays, %d samples: %d gaps (%.4f%%), %d double (%.4f%%); chain: %d gaps (max "
-              "%.1e), %d overlaps (max %.1e); iso at the aimed point: %d crossings, %d lost, %d duplicated, %d tangent "
-              "pairs; rays excluded: %d (a cell crosses twice), %d (hull over a curved face)\n",
-              name, kinds[k], run.name().c_str(), s.rays, s.samples, s.gaps, 100.0 * s.gaps / std::max(1, s.samples), s.doubles,
-              100.0 * s.doubles / std::max(1, s.samples), s.chain_gaps, s.max_gap, s.chain_overlaps, s.max_overlap,
+  std::printf("watertight %-16s %-6s %-6s: %d rays, %d samples: %d gaps (%d at the aimed point), %d double (%d at the "
+              "aimed point); chain: %d gaps (max %.1e), %d overlaps (max %.1e); iso at the aimed point: %d crossings, %d "
+              "lost, %d duplicated, %d tangent pairs; rays excluded: %d (a cell crosses twice), %d (hull over a curved "
+              "face)\n",
+              name, kinds[k], run.name().c_str(), s.rays, s.samples, s.gaps, s.aimed_gaps, s.doubles, s.aimed_doubles,
+              s.chain_gaps, s.max_gap, s.chain_overlaps, s.max_overlap,
               s.aimed, s.lost, s.duplicated, s.tangent_pairs, s.excluded, s.hull);
   }
 }
@@ -284,6 +329,10 @@ void report(char const* name, CellRunner const& run, std::array<Stats, 3> const&
 // evaluation makes a cell's exit bit-identical to its neighbour's entry
 // (tets: plane and face value; hexes: bilinear patch and value), so no gap,
 // no overlap, and no iso crossing lost or doubled. Asserted exactly (0).
+// Likewise exact: the 32 samples spread along each ray lie inside cells or
+// within rounding of one face, where the half-open face rule gives the
+// point to exactly one tet (hexes: see below), so no span sample is in no
+// tet or in two (one within rounding of an edge would take ~1e-6 odds).
 //
 // Rays through edges and vertices leave one cell through one face plane or
 // patch and enter the next through another (or through a cell that touches
@@ -294,7 +343,16 @@ void report(char const* name, CellRunner const& run, std::array<Stats, 3> const&
 // so a crossing exactly at an edge or vertex can be missed (neither cell
 // sees the sign change) or reported by several cells at the same t
 // (harmless for the renderer, which merges layers within 1e-5 x diagonal).
-// Bounds: about twice the worst rate measured on any ISA (see the report).
+// The same holds for the aimed point itself: within rounding of the edge or
+// vertex, each cell around it decides by its own planes, so it may be in no
+// cell or in several -- at most one such sample per ray. These rates follow
+// the kernels' rounding, which differs by ISA and compiler (g++ contracts
+// a*b+c into FMA on AVX2/AVX-512: with -ffp-contract=off those give SSE4's
+// counts exactly). Bounds hold for every build measured: g++ 12 (default and
+// -ffp-contract=off) and clang 14, each ISA, this file alone or in the
+// stage's unity TU, and with the aimed point moved exactly onto the vertex
+// or edge (a stress case for rounding: far more rays double there; g++'s
+// misfolding, see `rounded`, came close: 20 of 60 vertex rays doubled).
 TEST_CASE("watertight: generated tets and hexes", "[cells][watertight][isa]") {
   CellRunner const run{false, test::isa()};
   auto const tets = generate_tets(3000, 3, 0.3f);
@@ -308,14 +366,19 @@ TEST_CASE("watertight: generated tets and hexes", "[cells][watertight][isa]") {
   CHECK(t[0].duplicated == 0);
   CHECK(t[0].aimed > 40);
   for (auto const& k : t) {
-    CHECK(k.gaps <= k.samples / 250);  // measured <= 1 of 1980
-    CHECK(k.doubles <= k.samples / 100);  // measured <= 9 of 1980 (SSE4, vertex rays)
+    CHECK(k.gaps == k.aimed_gaps);  // span samples: exact (above)
+    CHECK(k.doubles == k.aimed_doubles);
+    // The aimed point at an edge or vertex: measured <= 1 gap and <= 9
+    // doubles of 60 (vertex rays), and <= 7 and <= 38 with the point exactly
+    // on the vertex: bounds for any rounding, still failing if most rays do.
+    CHECK(k.aimed_gaps <= k.rays / 5);
+    CHECK(k.aimed_doubles <= 3 * k.rays / 4);
     CHECK(k.max_gap < 1e-5);  // measured up to 2.4e-7
     CHECK(k.max_overlap < 1e-5);  // measured up to 9.5e-7
     CHECK(k.lost <= k.aimed / 4);  // measured <= 5 of 43 (SSE4, edge rays)
-    CHECK(k.duplicated <= k.aimed + 10);  // measured <= 36 of 46 (SSE4, vertex rays)
+    CHECK(k.duplicated <= k.aimed + 10);  // measured <= 36 of 46 (vertex rays)
   }
-  auto const hexes = generate_hexes(343, 3, 0.3f);
+  auto const hexes = rotated_hexes(generate_hexes(343, 3, 0.3f), 5);
   auto const h = measure(run, hexes.mesh(), 60, true, 2);
   report("generated hexes", run, h);
   CHECK(h[0].lost == 0);
@@ -325,8 +388,10 @@ TEST_CASE("watertight: generated tets and hexes", "[cells][watertight][isa]") {
     CHECK(k.gaps == 0);
     CHECK(k.chain_gaps == 0);
     // Containment tolerance (hex_inside_tolerance) claims the aimed point,
-    // on a face, edge or vertex, for several cells: 1 of 33 samples a ray.
-    CHECK(k.doubles <= k.samples / 25);
+    // on a face, edge or vertex, for several cells by design (every ray's);
+    // a span sample only if it falls within 1e-5 (trilinear units) of a
+    // shared face: expected ~0.1 of 1980 samples, measured 0.
+    CHECK(k.doubles - k.aimed_doubles <= k.samples / 500);
     CHECK(k.lost <= k.aimed / 10);  // measured <= 2 of 41 (SSE4, edge rays)
     CHECK(k.duplicated <= 6 * k.aimed);  // measured <= 118 of 37 (vertex rays: up to 8 cells touch the vertex)
   }
@@ -338,9 +403,12 @@ TEST_CASE("watertight: real meshes (post.vtk tets, disk_out_ref.vtu hexes)", "[c
   auto const t = measure(run, post.tet_mesh(), 20, false, 3);
   report("post.vtk", run, t);
   CHECK(t[0].doubles == 0);
+  CHECK(t[0].chain_gaps == 0);  // holes shorter than 1e-4 x span (longer ones are the mesh's boundary)
+  CHECK(t[0].chain_overlaps == 0);
   CHECK(t[0].lost == 0);
   CHECK(t[0].duplicated == 0);
   for (auto const& k : t) {
+    CHECK(k.doubles == k.aimed_doubles);  // span samples: exact (see above)
     CHECK(k.gaps <= k.samples / 50);
     CHECK(k.lost <= k.aimed / 4);  // measured <= 3 of 16 (SSE4, vertex rays)
   }
@@ -351,6 +419,7 @@ TEST_CASE("watertight: real meshes (post.vtk tets, disk_out_ref.vtu hexes)", "[c
   CHECK(h[0].duplicated == 0);
   for (auto const& k : h) {
     CHECK(k.gaps == 0);
+    CHECK(k.chain_gaps == 0);
     CHECK(k.lost <= k.aimed / 10);  // measured 0
   }
 }
