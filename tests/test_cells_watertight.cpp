@@ -40,25 +40,6 @@ struct Stats {
   double max_gap = 0, max_overlap = 0;
 };
 
-/// `x` rounded to float, as a value the optimiser cannot trace back to `x`.
-/// g++ 12.2 miscompiles `double(float(x))` at -O2 and up once its SLP
-/// vectoriser packs two such lanes: value numbering (fre5) folds the vector
-/// round trip `(vector double)(vector float) v` back to `v`. This file, in
-/// the cells stage's unity TU, then sampled (and gave the double reference)
-/// the unrounded double ray instead of the float ray the kernels saw -- aimed
-/// exactly through the vertex, where several cells claim a point -- and
-/// measured 20 of 1980 vertex samples in two cells instead of 3-9. A volatile
-/// load is opaque: what is converted back is the float itself.
-float rounded(double x) {
-  float volatile const f = float(x);
-  return f;
-}
-
-/// The float ray the kernels see (test::to_query), made opaque (see rounded).
-RayQuery float_ray(glm::dvec3 const& o, glm::dvec3 const& d) {
-  return {rounded(o.x), rounded(o.y), rounded(o.z), rounded(d.x), rounded(d.y), rounded(d.z)};
-}
-
 /// `g` with each hex's corners re-listed by one of 8 rotations of the cube
 /// (about its vertical axis, optionally turned upside down): the same cells,
 /// still positively oriented VTK hexes. The lattice lists both hexes of a
@@ -223,10 +204,10 @@ std::array<Stats, 3> measure(CellRunner const& run, CellMesh<N> const& m, int ra
       double iso_value;
       aim(rng, m, topo, kind, target, iso_value);
       glm::dvec3 const d = rng.direction();
-      RayQuery const q = float_ray(target - 3.0 * d, d);
+      RayQuery const q = test::to_query(target - 3.0 * d, d);
       std::fill(rq.begin(), rq.end(), q);
       run.clip(m, {all.data(), 0}, rq.data(), nc, clip.data());
-      float const isof[1] = {rounded(iso_value)};
+      float const isof[1] = {test::rounded(iso_value)};
       run.iso(m, {all.data(), 0}, rq.data(), nc, isof, 1, {}, iso.data());
       ++st.rays;
       // Chain of intervals.
@@ -249,7 +230,8 @@ std::array<Stats, 3> measure(CellRunner const& run, CellMesh<N> const& m, int ra
       std::vector<float> pts;
       for (int s = 0; s <= 32; ++s) {
         double const t = s == 32 ? 3.0 : iv[0].first + (span * (s + 0.5)) / 32;
-        pts.insert(pts.end(), {rounded(q.ox + t * q.dx), rounded(q.oy + t * q.dy), rounded(q.oz + t * q.dz)});
+        pts.insert(pts.end(),
+                   {test::rounded(q.ox + t * q.dx), test::rounded(q.oy + t * q.dy), test::rounded(q.oz + t * q.dz)});
       }
       for (size_t s = 0; s < pts.size() / 3; ++s) {
         glm::vec3 const p(pts[3 * s], pts[3 * s + 1], pts[3 * s + 2]);
@@ -352,7 +334,7 @@ void report(char const* name, CellRunner const& run, std::array<Stats, 3> const&
 // -ffp-contract=off) and clang 14, each ISA, this file alone or in the
 // stage's unity TU, and with the aimed point moved exactly onto the vertex
 // or edge (a stress case for rounding: far more rays double there; g++'s
-// misfolding, see `rounded`, came close: 20 of 60 vertex rays doubled).
+// misfolding, see test::rounded, came close: 20 of 60 vertex rays doubled).
 TEST_CASE("watertight: generated tets and hexes", "[cells][watertight][isa]") {
   CellRunner const run{false, test::isa()};
   auto const tets = generate_tets(3000, 3, 0.3f);

@@ -139,9 +139,22 @@ inline void distorted_hex(Rng& rng, HexKind kind, glm::dvec3 p[8]) {
   for (int i = 0; i < 8; ++i) p[i] = shift + scale * p[i];
 }
 
+/// `x` rounded to float, as a value the optimiser cannot trace back to `x`.
+/// g++ 12.2 miscompiles `double(float(x))` at -O2 and up once its SLP
+/// vectoriser packs two such lanes: value numbering (fre5) folds the vector
+/// round trip `(vector double)(vector float) v` back to `v`, so a double
+/// reference fed from such floats would see the unrounded values instead of
+/// what the kernels saw (found in test_cells_watertight.cpp's unity TU: its
+/// rays went exactly through the vertex they aimed at). A volatile load is
+/// opaque: what is converted back is the float itself.
+inline float rounded(double x) {
+  float volatile const f = float(x);
+  return f;
+}
+
 /// Float copy of a ray in double (what the SIMD kernels see), and back.
 inline RayQuery to_query(glm::dvec3 const& o, glm::dvec3 const& d) {
-  return {float(o.x), float(o.y), float(o.z), float(d.x), float(d.y), float(d.z)};
+  return {rounded(o.x), rounded(o.y), rounded(o.z), rounded(d.x), rounded(d.y), rounded(d.z)};
 }
 inline ref::Ray to_ref(RayQuery const& q) { return {{q.ox, q.oy, q.oz}, {q.dx, q.dy, q.dz}}; }
 
