@@ -128,7 +128,11 @@ inline void hit_part(PreparedPart const& part, CellMesh<N> const& mesh, RayPacke
 template <class A>
 inline SceneHit<A> nearest_hit(PreparedScene const& s, RayPacket<A> const& r, vmask<A> active, IsoSet const& isos,
                                CellIsoOptions const& roots, Traversal how, int threshold, bool gradient = false) {
-  SceneHit<A> best{r.tmax, vint<A>(-1), vint<A>(-1), vint<A>(-1)};
+  // Members one by one: aggregate initialisation zeroed all 7 vectors with
+  // `rep stos` first (g++ 12), a slow start-up on every packet.
+  SceneHit<A> best;
+  best.t = r.tmax;
+  best.iso = best.item = best.part = vint<A>(-1);
   for (size_t p = 0; p < s.parts.size(); ++p) {
     PreparedPart const& part = s.parts[p];
     if (part.tets) hit_part<A>(part, *part.tets, r, active, isos, roots, how, threshold, int(p), best, gradient);

@@ -58,6 +58,13 @@ template <class A, int N> struct FirstHitQuery {
   bool want_gradient = false;
   Vec3<A> grad{};
 
+  /// A constructor, not aggregate initialisation: g++ zeroed the whole
+  /// query (about 500 bytes, `rep stos`) before storing the members, once
+  /// per packet and part (2-3% of an iso frame with the SceneHit below).
+  FirstHitQuery(TreeView const& t, CellMesh<N> const& m, RayPacket<A> const& rays, IsoSet const& i,
+                CellIsoOptions const& o, HitPacket<A> const& h)
+      : tree(t), mesh(m), r(rays), isos(i), method(o), hit(h) {}
+
   bool node_relevant(float vmin, float vmax) const { return isos.overlaps(vmin, vmax); }
   vmask<A> relevant(vfloat<A> const& vmin, vfloat<A> const& vmax) const {
     vmask<A> m = simd::no_lanes<A>();

@@ -153,7 +153,7 @@ template <class A, int N> struct SegmentQuery {
     vfloat<A> const zero(0.f);
     // value[] and gradient[] coefficients per lane.
     vfloat<A> cv[4] = {k.s_in, k.s_out - k.s_in, zero, zero};
-    vfloat<A> cg[3][4] = {};
+    vfloat<A> cg[3][4];  // set and read only with gradients (zeroing it was a `rep stos` per cell)
     if constexpr (N == 8) {
       Vec3<A> u1, u2;
       vfloat<A> const v1 = hex_on_ray(ray, c, k, m, 1.f / 3.f, u1), v2 = hex_on_ray(ray, c, k, m, 2.f / 3.f, u2);
