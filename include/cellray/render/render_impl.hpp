@@ -643,7 +643,7 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
 template <class A>
 void integrate_samples(PreparedScene const& s, RayPacket<A> const& r, vmask<A> const& inside,
                        vfloat<A> const& t_enter, vfloat<A> const& t_exit, DvrParams const& p, Traversal how,
-                       int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca) {
+                       int threshold, SampleCull* cull, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca) {
   constexpr int W = width<A>;
   constexpr float nan = std::numeric_limits<float>::quiet_NaN();
   PreparedTf const& ptf = *s.tf;
@@ -689,10 +689,12 @@ void integrate_samples(PreparedScene const& s, RayPacket<A> const& r, vmask<A> c
         values[g][l] = nan, cin[g][l] = cout[g][l] = 0.f;
         if (shade) grad[0][g][l] = grad[1][g][l] = grad[2][g][l] = 0.f;
       }
-    for (PreparedPart const& part : s.parts) {
+    for (size_t pi = 0; pi < s.parts.size(); ++pi) {
+      PreparedPart const& part = s.parts[pi];
       auto run = [&](auto const& mesh) {
         constexpr int N = std::decay_t<decltype(mesh)>::corners;
         SampleQuery<A, N> q(part.tree, mesh, r, s.windows, t0, step, G, active);
+        q.cull = &cull[pi];
         q.want_interval = true;
         q.want_gradient = shade;
         sample_group(q, active, how, threshold);
@@ -744,6 +746,7 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
   constexpr int W = width<A>;
   int const threshold = o.hybrid_threshold > 0 ? o.hybrid_threshold : std::max(1, W / 4);
   SegmentScratch<A> scratch;
+  std::vector<SampleCull> sample_cull(s.parts.size());  // per part: cell sizes differ; measured once per tile
   for (int by = tile.y0; by < tile.y0 + tile.h; by += block_h<A>)
     for (int bx = tile.x0; bx < tile.x0 + tile.w; bx += block_w<A>) {
       int px[W], py[W];
@@ -758,7 +761,8 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
       vfloat<A> const t_exit = scene_exit(r, s);
       vfloat<A> cr(0.f), cg(0.f), cb(0.f), ca(0.f);
       if (p.mode == DvrMode::samples)
-        integrate_samples<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, cr, cg, cb, ca);
+        integrate_samples<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, sample_cull.data(), cr, cg, cb,
+                             ca);
       else
         integrate_segments<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, scratch, cr, cg, cb, ca);
       auto const ar = simd::to_array<A>(cr), ag = simd::to_array<A>(cg), ab = simd::to_array<A>(cb),

@@ -107,6 +107,8 @@ inline float min(float a, float b) noexcept { return a < b ? a : b; }
 inline float max(float a, float b) noexcept { return a > b ? a : b; }
 inline float abs(float a) noexcept { return std::fabs(a); }
 inline float sqrt(float a) noexcept { return std::sqrt(a); }
+inline float floor(float a) noexcept { return std::floor(a); }
+inline float ceil(float a) noexcept { return std::ceil(a); }
 template <class A> inline xsimd::batch<float, A> min(xsimd::batch<float, A> const& a, xsimd::batch<float, A> const& b) noexcept {
   return xsimd::select(a < b, a, b);  // same NaN rule as the scalar path: b when unordered
 }
@@ -115,6 +117,8 @@ template <class A> inline xsimd::batch<float, A> max(xsimd::batch<float, A> cons
 }
 template <class A> inline xsimd::batch<float, A> abs(xsimd::batch<float, A> const& a) noexcept { return xsimd::abs(a); }
 template <class A> inline xsimd::batch<float, A> sqrt(xsimd::batch<float, A> const& a) noexcept { return xsimd::sqrt(a); }
+template <class A> inline xsimd::batch<float, A> floor(xsimd::batch<float, A> const& a) noexcept { return xsimd::floor(a); }
+template <class A> inline xsimd::batch<float, A> ceil(xsimd::batch<float, A> const& a) noexcept { return xsimd::ceil(a); }
 
 /// a*b + c, fused on AVX2 and AVX-512 (xsimd 8.1 only fuses AVX-512 when the
 /// compiler contracts `x*y+z`, which clang and -ffp-contract=off do not).
