@@ -109,11 +109,16 @@ inline float abs(float a) noexcept { return std::fabs(a); }
 inline float sqrt(float a) noexcept { return std::sqrt(a); }
 inline float floor(float a) noexcept { return std::floor(a); }
 inline float ceil(float a) noexcept { return std::ceil(a); }
+/// a < b ? a : b (max: a > b ? a : b) lane by lane, as the scalar path: b
+/// when unordered (NaN) and for equal values (+0 vs -0). That is exactly the
+/// definition of x86's MINPS/MAXPS (DEST = SRC1 < SRC2 ? SRC1 : SRC2), which
+/// xsimd 8.1 calls with (a, b) on SSE, AVX and AVX-512: one instruction
+/// instead of a compare and a blend (2-3% of an iso or DVR frame).
 template <class A> inline xsimd::batch<float, A> min(xsimd::batch<float, A> const& a, xsimd::batch<float, A> const& b) noexcept {
-  return xsimd::select(a < b, a, b);  // same NaN rule as the scalar path: b when unordered
+  return xsimd::min(a, b);
 }
 template <class A> inline xsimd::batch<float, A> max(xsimd::batch<float, A> const& a, xsimd::batch<float, A> const& b) noexcept {
-  return xsimd::select(a > b, a, b);
+  return xsimd::max(a, b);
 }
 template <class A> inline xsimd::batch<float, A> abs(xsimd::batch<float, A> const& a) noexcept { return xsimd::abs(a); }
 template <class A> inline xsimd::batch<float, A> sqrt(xsimd::batch<float, A> const& a) noexcept { return xsimd::sqrt(a); }
