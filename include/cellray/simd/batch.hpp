@@ -103,6 +103,13 @@ inline xsimd::batch<T, A> select(xsimd::batch_bool<T, A> const& m, xsimd::batch<
   else return xsimd::select(m, a, b);
 }
 
+/// dst[0..4) = v in one 128-bit store (every ISA unit has SSE): for W-wide
+/// code that needs only a few lanes of a broadcast in memory.
+inline void store_broadcast4(float* dst, float v) noexcept { _mm_storeu_ps(dst, _mm_set1_ps(v)); }
+inline void store_broadcast4(int32_t* dst, int32_t v) noexcept {
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(dst), _mm_set1_epi32(v));
+}
+
 inline float min(float a, float b) noexcept { return a < b ? a : b; }
 inline float max(float a, float b) noexcept { return a > b ? a : b; }
 inline float abs(float a) noexcept { return std::fabs(a); }
