@@ -29,22 +29,6 @@ inline vmask<A> scene_occluded(PreparedScene const& s, RayPacket<A> const& r, vm
   return occ;
 }
 
-/// scene_occluded for one packet through occluded_packets (tets clipped a
-/// (cell, ray) pair per lane): the `grouped` query's shadow rays.
-template <class A>
-inline vmask<A> scene_occluded_paired(PreparedScene const& s, RayPacket<A> const& r, vmask<A> active,
-                                      IsoSet const& isos, CellIsoOptions const& roots) {
-  RayPacket<A> const one[1] = {r};
-  uint32_t const entry = simd::movemask(active);
-  uint32_t pending[1] = {entry};
-  for (PreparedPart const& part : s.parts) {
-    if (!pending[0]) break;
-    if (part.tets) occluded_packets<A, 1>(part.tree, *part.tets, one, pending, isos, roots);
-    else occluded_packets<A, 1>(part.tree, *part.hexes, one, pending, isos, roots);
-  }
-  return simd::mask_from_bits<A>(entry & ~pending[0]);
-}
-
 /// Occlusion of `n` rays (n <= max_sorted_rays) traced in packets of W after
 /// sorting them by direction_bin: rays of one pixel block leave from nearby
 /// points, so rays of similar direction sweep the same nodes and cells.

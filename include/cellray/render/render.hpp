@@ -132,7 +132,7 @@ enum class SecondaryQuery {
   /// Any hit; a pixel block's AO rays (up to 4 samples at a time) regrouped
   /// by direction into dense packets (shadow rays as `occlusion`).
   sorted,
-  /// As `sorted`, and the regrouped packets go 4 at a time through one
+  /// As `sorted`, and the regrouped AO packets go 4 at a time through one
   /// traversal (nodes and cell corners read once for all of them).
   grouped,
 };
