@@ -46,11 +46,8 @@ inline void scene_occluded_sorted(PreparedScene const& s, Ray const* rays, int n
   constexpr int W = width<A>, K = grouped_packets;
   uint32_t key[max_sorted_rays];
   uint16_t order[max_sorted_rays];
-  for (int i = 0; i < n; ++i) {
-    key[i] = direction_bin(rays[i].dir.x, rays[i].dir.y, rays[i].dir.z);
-    order[i] = uint16_t(i);
-  }
-  sort_by_key(order, n, key);
+  for (int i = 0; i < n; ++i) key[i] = direction_bin(rays[i].dir.x, rays[i].dir.y, rays[i].dir.z);
+  sort_by_direction_bin(order, n, key);
   for (int i = 0; i < (n + 63) / 64; ++i) occluded[i] = 0;
   if (grouped) {
     for (int base = 0; base < n; base += K * W) {
