@@ -163,7 +163,8 @@ struct RenderOptions {
   /// fewer than `nearest` (callgrind, AVX2, 256x256; AO rays 1.44x, shadow
   /// rays 1.05x), but they wait on memory: secondary CPU time 1.09x-1.25x
   /// less than `nearest` (AVX-512, 512x512, `bench_targets --secondary`,
-  /// medians of per-round ratios in 4 runs on a loaded machine).
+  /// medians of per-round ratios in 4 runs on a loaded Xeon), 1.45x-1.48x
+  /// on an AMD EPYC (shadow rays then as one packet each, AO grouped).
   SecondaryQuery secondary_query = SecondaryQuery::grouped;
   int hybrid_threshold = 0;  ///< 0: a quarter of the packet width
   int tile_size = 32;        ///< pixels per tile side, scheduled on TBB
