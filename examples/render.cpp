@@ -384,7 +384,7 @@ void add_options(CLI::App& app, Options& o) {
   app.add_flag("--dvr-shading", o.dvr_shading,
                "DVR gradient shading: headlight Lambert + Blinn-Phong from the scalar gradient, fading out where the "
                "field is flat");
-  app.add_option("--group-size", o.group_size, "DVR samples per ray per traversal")
+  app.add_option("--group-size", o.group_size, "DVR samples per ray in its first traversal; each further one doubles, up to 32")
       ->check(CLI::Range(1, 32))
       ->capture_default_str();
   app.add_flag("--no-skip", o.no_skip, "Disable DVR empty-space skipping");

@@ -653,7 +653,7 @@ void integrate_samples(PreparedScene const& s, RayPacket<A> const& r, vmask<A> c
   PreparedTf const& ptf = *s.tf;
   TfTable<A> const table{ptf.r.data(), ptf.g.data(), ptf.b.data(), ptf.a.data(), int(ptf.r.size()), ptf.lo, ptf.scale};
   float const step = s.step, half = 0.5f * step;
-  int const G = p.group_size;
+  int G = p.group_size;  // doubles after every group, as segments' windows do
   bool const shade = p.shading.enabled;
   vfloat<A> const term(p.termination), one(1.f);
   // The pending sample per lane: colour, opacity for a full step, its t, the
@@ -739,6 +739,7 @@ void integrate_samples(PreparedScene const& s, RayPacket<A> const& r, vmask<A> c
       prev_valid = (active && valid) || (!active && prev_valid);
     }
     t0 = t0 + vfloat<A>(step * float(G));
+    G = std::min(2 * G, max_sample_group);
     active = active && t0 <= t_exit && ca < term;
   }
   if (simd::any(pend)) composite(pend, pend);
