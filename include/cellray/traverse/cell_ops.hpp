@@ -71,18 +71,25 @@ template <class A> struct CellOps<A, 8> {
   }
 };
 
+/// The cell's bounding box per lane.
+template <class A, int N>
+CELLRAY_FORCE_INLINE void cell_box(CellCorners<A, N> const& c, vfloat<A> lo[3], vfloat<A> hi[3]) {
+  lo[0] = hi[0] = c.x[0], lo[1] = hi[1] = c.y[0], lo[2] = hi[2] = c.z[0];
+  for (int k = 1; k < N; ++k) {
+    lo[0] = simd::min(lo[0], c.x[k]), hi[0] = simd::max(hi[0], c.x[k]);
+    lo[1] = simd::min(lo[1], c.y[k]), hi[1] = simd::max(hi[1], c.y[k]);
+    lo[2] = simd::min(lo[2], c.z[k]), hi[2] = simd::max(hi[2], c.z[k]);
+  }
+}
+
 /// Lanes whose ray meets the cell's bounding box within [t_lo, t_hi]: a
 /// cheap cull before a clip, conservative like the BVH node test (same
 /// box_hit_varying).
 template <class A, int N>
 CELLRAY_FORCE_INLINE vmask<A> cell_box_hit(RayPacket<A> const& r, CellCorners<A, N> const& c, vfloat<A> const& t_lo,
                              vfloat<A> const& t_hi) {
-  vfloat<A> lo[3] = {c.x[0], c.y[0], c.z[0]}, hi[3] = {c.x[0], c.y[0], c.z[0]};
-  for (int k = 1; k < N; ++k) {
-    lo[0] = simd::min(lo[0], c.x[k]), hi[0] = simd::max(hi[0], c.x[k]);
-    lo[1] = simd::min(lo[1], c.y[k]), hi[1] = simd::max(hi[1], c.y[k]);
-    lo[2] = simd::min(lo[2], c.z[k]), hi[2] = simd::max(hi[2], c.z[k]);
-  }
+  vfloat<A> lo[3], hi[3];
+  cell_box(c, lo, hi);
   vfloat<A> tn;
   return box_hit_varying(r, lo, hi, t_lo, t_hi, tn);
 }

@@ -203,12 +203,8 @@ template <class A, int N> struct SampleQuery {
   /// the cell is in its box; a wider interval only clips more); `box`: the
   /// lanes whose search interval meets the box (cell_box_hit's test).
   vmask<A> sample_in_box(CellCorners<A, N> const& c, vmask<A>& box) const {
-    vfloat<A> lo[3] = {c.x[0], c.y[0], c.z[0]}, hi[3] = {c.x[0], c.y[0], c.z[0]};
-    for (int k = 1; k < N; ++k) {
-      lo[0] = simd::min(lo[0], c.x[k]), hi[0] = simd::max(hi[0], c.x[k]);
-      lo[1] = simd::min(lo[1], c.y[k]), hi[1] = simd::max(hi[1], c.y[k]);
-      lo[2] = simd::min(lo[2], c.z[k]), hi[2] = simd::max(hi[2], c.z[k]);
-    }
+    vfloat<A> lo[3], hi[3];
+    cell_box(c, lo, hi);
     vfloat<A> const ax = (lo[0] - r.ox) * r.rx, bx = (hi[0] - r.ox) * r.rx;
     vfloat<A> const ay = (lo[1] - r.oy) * r.ry, by = (hi[1] - r.oy) * r.ry;
     vfloat<A> const az = (lo[2] - r.oz) * r.rz, bz = (hi[2] - r.oz) * r.rz;
