@@ -318,6 +318,7 @@ struct Options {
   int leaf_size = 7;
   int group_size = 16;
   std::string dvr_mode = "segments";
+  bool no_march = false;
   bool dvr_shading = false;
   bool no_skip = false;
   int neubauer = 0;
@@ -381,6 +382,9 @@ void add_options(CLI::App& app, Options& o) {
                  "DVR by exact cell segments (default: faster and more accurate, docs/accuracy.md) or point samples")
       ->check(CLI::IsMember({"samples", "segments"}))
       ->capture_default_str();
+  app.add_flag("--no-march", o.no_march,
+               "DVR segments on tets: clip the cells of the BVH leaves each packet reaches instead of marching from "
+               "cell to cell through face neighbours (the same image; for comparisons)");
   app.add_flag("--dvr-shading", o.dvr_shading,
                "DVR gradient shading: headlight Lambert + Blinn-Phong from the scalar gradient, fading out where the "
                "field is flat");
@@ -683,8 +687,19 @@ int run(Options const& o) {
   if (!(vlo <= vhi))
     throw InvalidMesh(l.name + ": point array '" + array + "' has no finite value: nothing to render");
 
+  // Cell-segment DVR of a tet mesh marches through face neighbours.
+  TetNeighbours neighbours;
+  double neighbours_ms = 0;
+  bool const march = o.mode == "dvr" && o.dvr_mode == "segments" && !o.no_march && !o.reference && !l.tets.empty() &&
+                     l.hexes.empty();
+  if (march) {
+    Phase ph(progress, "finding face neighbours of " + std::to_string(l.tets.cell_count()) + " tets");
+    neighbours = build_tet_neighbours(l.tets);
+    neighbours_ms = ph.finish();
+  }
   Scene scene;
-  if (!l.tets.empty()) scene.tets.push_back({l.tets, &tet_bvh, refit ? &tet_ranges : nullptr});
+  if (!l.tets.empty())
+    scene.tets.push_back({l.tets, &tet_bvh, refit ? &tet_ranges : nullptr, march ? &neighbours : nullptr});
   if (!l.hexes.empty()) scene.hexes.push_back({l.hexes, &hex_bvh, refit ? &hex_ranges : nullptr});
 
   // Camera: fit the bounds, then apply what was given.
@@ -813,6 +828,8 @@ int run(Options const& o) {
     j["leaf_size"] = o.leaf_size;
     j["build_ms"] = build_ms;
     j["refit_ms"] = refit_ms;
+    j["neighbours_ms"] = neighbours_ms;
+    j["neighbours_bytes"] = neighbours.memory_bytes();
     j["bvh_nodes"] = tet_bvh.node_count() * !l.tets.empty() + hex_bvh.node_count() * !l.hexes.empty();
     j["bvh_bytes"] = bvh_bytes;
     j["bvh_bytes_per_cell"] = double(bvh_bytes) / double(l.cells());

@@ -174,9 +174,14 @@ inline CellIsoHit<A> neubauer_crossings(CellClip<A> const& clip, vmask<A> const&
 /// determinant; the face-value interpolation runs only for faces some hit
 /// lane enters or leaves through, and not at all when every lane misses
 /// (most cells a packet reaches in a BVH leaf).
+///
+/// `exit_face` (optional): the face each hit lane leaves through, as an
+/// index f into the corners (the face opposite corner f; on a tie at an
+/// edge or vertex, the lowest such f), for marching to the neighbour across
+/// it (mesh/neighbours.hpp). Unspecified in lanes without a hit.
 template <class A>
 inline CellClip<A> clip_tet_window(RayBatch<A> const& ray, CellCorners<A, 4> const& c, vmask<A> const& lanes,
-                                   vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
+                                   vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face = nullptr) {
   constexpr float inf = std::numeric_limits<float>::infinity();
   vfloat<A> const zero(0.f);
   Vec3<A> const o = ray.origin(), d = ray.dir();
@@ -214,6 +219,7 @@ inline CellClip<A> clip_tet_window(RayBatch<A> const& ray, CellCorners<A, 4> con
     new_out[f] = den < zero && t[f] < r.t_out;
     r.t_in = simd::select(new_in[f], t[f], r.t_in);
     r.t_out = simd::select(new_out[f], t[f], r.t_out);
+    if (exit_face) *exit_face = simd::select(simd::to_int_mask(new_out[f]), vint<A>(f), *exit_face);
   }
   r.hit = ok && r.t_in < r.t_out && r.t_out >= t_lo && r.t_in <= t_hi;
   r.s_in = zero, r.s_out = zero;

@@ -9,6 +9,7 @@
 #include <glm/vec3.hpp>
 
 #include "../mesh/cell_mesh.hpp"
+#include "../mesh/neighbours.hpp"
 #include "../traverse/sample.hpp"
 #include "../traverse/tree_view.hpp"
 #include "transfer_function.hpp"
@@ -19,6 +20,7 @@ struct PreparedPart {
   TreeView tree;
   TetMesh const* tets = nullptr;   ///< exactly one of tets / hexes is set
   HexMesh const* hexes = nullptr;
+  TetNeighbours const* neighbours = nullptr;  ///< tets only: set when DVR segments may march (can_march)
 };
 
 /// Transfer function sampled into a table with the opacity corrected for the

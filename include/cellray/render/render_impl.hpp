@@ -17,6 +17,7 @@
 #include "../traverse/first_hit.hpp"
 #include "../traverse/queries_impl.hpp"
 #include "../traverse/sample.hpp"
+#include "../traverse/march.hpp"
 #include "../traverse/segments.hpp"
 #include "occlusion_impl.hpp"
 #include "render.hpp"
@@ -635,6 +636,69 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
   cr = simd::load<A>(o[0]), cg = simd::load<A>(o[1]), cb = simd::load<A>(o[2]), ca = simd::load<A>(o[3]);
 }
 
+/// Cell-segment DVR by marching (traverse/march.hpp): the same segments as
+/// integrate_segments, the same pieces (at most `step` long, the transfer
+/// function at each piece's midpoint) and the same compositing, but one cell
+/// per lane per step, integrated across the lanes in SIMD as it is found.
+/// Tet parts with face neighbours only (PreparedPart::neighbours), one part.
+template <class A>
+void integrate_march(PreparedScene const& s, PreparedPart const& part, RayPacket<A> const& r, vmask<A> const& inside,
+                     vfloat<A> const& t_enter, vfloat<A> const& t_exit, DvrParams const& p, Traversal how,
+                     int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca) {
+  PreparedTf const& ptf = *s.tf;
+  bool const shade = p.shading.enabled;
+  vfloat<A> const zero(0.f), one(1.f), half(0.5f), term(p.termination), step(s.step), inv_step(1.f / s.step);
+  vfloat<A> const lo(ptf.lo), scale(ptf.scale), last(float(ptf.r.size() - 1) - 1e-3f);
+  TetMarch<A> m(part.tree, *part.tets, *part.neighbours, r, s.windows, t_enter, t_exit);
+  vmask<A> live = inside;
+  while (simd::any(live)) {
+    // Lanes without a cell wait until they are half of the live ones (or
+    // all): one traversal then locates them together.
+    vmask<A> const has = live && m.has_cell();
+    vmask<A> const need = live && !has;
+    if (simd::any(need) && (simd::none(has) || 2 * popcount<A>(need) >= popcount<A>(live))) {
+      live = live && !m.locate(need, how, threshold);
+      continue;
+    }
+    typename TetMarch<A>::Step const st = m.step(has, shade);
+    vmask<A> const go = st.visible && ca < term;
+    if (simd::any(go)) {
+      vfloat<A> const len = st.e - st.a;
+      vfloat<A> const pieces = simd::max(one, xsimd::ceil(len * inv_step));
+      vfloat<A> const d = len / pieces;
+      vfloat<A> const seg_len = st.k.t_out - st.k.t_in;
+      vmask<A> const long_enough = seg_len > zero;
+      vfloat<A> const inv_len = one / simd::select(long_enough, seg_len, one);
+      vfloat<A> const ds = st.k.s_out - st.k.s_in;
+      vfloat<A> piece(0.f);
+      for (vmask<A> on = go; simd::any(on); piece = piece + one, on = on && piece < pieces && ca < term) {
+        vfloat<A> const tm = st.a + (piece + half) * d;
+        vfloat<A> const lam = simd::select(long_enough, (tm - st.k.t_in) * inv_len, zero);
+        vfloat<A> const v = st.k.s_in + lam * ds;
+        // The transfer function as integrate_pieces reads it (table, linear
+        // in between, NaN transparent).
+        vmask<A> const ok = !simd::isnan(v);
+        vfloat<A> const x = simd::min(simd::max((simd::select(ok, v, lo) - lo) * scale, zero), last);
+        vint<A> const i = TfTable<A>::template xsimd_trunc<A>(x);
+        vfloat<A> const f = x - TfTable<A>::template to_float<A>(i);
+        vint<A> const i1 = i + vint<A>(1);
+        auto lerp = [&](std::vector<float> const& t) {
+          vfloat<A> const a = simd::gather(t.data(), i);
+          return a + f * (simd::gather(t.data(), i1) - a);
+        };
+        vfloat<A> const lt = simd::select(ok, simd::min(lerp(ptf.log_transmittance), zero), zero);
+        vfloat<A> const pa = one - vexp<A>(lt * d);
+        vfloat<A> sr = lerp(ptf.r), sg = lerp(ptf.g), sb = lerp(ptf.b);
+        if (shade) shade_batch<A>(p.shading, s.inv_gradient_full, st.gradient.x, st.gradient.y, st.gradient.z, r, sr, sg, sb);
+        vfloat<A> const w = simd::select(on, simd::min((one - ca) * pa, term - ca), zero);  // exact termination
+        cr = cr + w * sr, cg = cg + w * sg, cb = cb + w * sb;
+        ca = ca + w;
+      }
+    }
+    live = live && ca < term && m.t < t_exit;
+  }
+}
+
 /// Point-sampled DVR (Rathke 2015 §7): samples at t_enter + (k + 1/2) step,
 /// located in groups of G through the BVH. Each sample stands for the step
 /// around it; where the next (previous) sample is outside the visible mesh
@@ -752,6 +816,7 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
   int const threshold = o.hybrid_threshold > 0 ? o.hybrid_threshold : std::max(1, W / 4);
   SegmentScratch<A> scratch;
   std::vector<SampleCull> sample_cull(s.parts.size());  // per part: cell sizes differ; measured once per tile
+  bool const march = s.parts.size() == 1 && s.parts[0].neighbours;
   for (int by = tile.y0; by < tile.y0 + tile.h; by += block_h<A>)
     for (int bx = tile.x0; bx < tile.x0 + tile.w; bx += block_w<A>) {
       int px[W], py[W];
@@ -768,6 +833,8 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
       if (p.mode == DvrMode::samples)
         integrate_samples<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, sample_cull.data(), cr, cg, cb,
                              ca);
+      else if (march)
+        integrate_march<A>(s, s.parts[0], r, inside, t_enter, t_exit, p, o.traversal, threshold, cr, cg, cb, ca);
       else
         integrate_segments<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, scratch, cr, cg, cb, ca);
       auto const ar = simd::to_array<A>(cr), ag = simd::to_array<A>(cg), ab = simd::to_array<A>(cb),

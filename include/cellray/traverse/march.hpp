@@ -1,0 +1,168 @@
+#pragma once
+// Marching rays from tet to tet through face neighbours (mesh/neighbours.hpp),
+// one ray per lane, for cell-segment DVR. Not in the paper. ISA units only.
+//
+// A packet traversal clips every cell of every leaf the packet reaches; on a
+// fine tet mesh most lanes miss most of those cells (component8: 18% of the
+// clip lanes hit). A march clips one cell per lane per step, the one the
+// ray is in, and moves each lane across the face it leaves through. The BVH
+// still finds where a march starts: the first visible cell past t for the
+// lanes that have none (at the start, after leaving the mesh through a
+// boundary face, after `max_faint` cells in a row with no visible segment,
+// where the min-max tree skips empty space faster than a march, and where a
+// step makes no progress: a ray through an edge or vertex may leave into a
+// cell that does not contain its continuation).
+//
+// The segments are the packet clip's (same kernel, same canonical faces), so
+// a march integrates what a traversal would, cell for cell; shared faces give
+// bit-identical t and values on both sides.
+
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+
+#include "../mesh/neighbours.hpp"
+#include "cell_ops.hpp"
+#include "traverse.hpp"
+#include "tree_view.hpp"
+
+namespace cellray {
+inline namespace CELLRAY_ISA_NS {
+
+/// Per lane, the visible cell the ray is in or enters first after `lo`: the
+/// smallest t_in of the cells whose clip interval ends past lo (strictly, so
+/// a march from it progresses) and starts by `hi`, with no NaN corner value
+/// and field values along the ray that meet a value window. -1: none.
+template <class A> struct FirstCellQuery {
+  TreeView const* tree_;
+  TetMesh const* mesh_;
+  RayPacket<A> const& r;
+  ValueWindows const& windows;
+  vfloat<A> lo, hi;
+  vfloat<A> best_t = vfloat<A>(std::numeric_limits<float>::infinity());  ///< t_in of `cell`
+  vint<A> cell = vint<A>(-1);
+
+  FirstCellQuery(TreeView const& t, TetMesh const& m, RayPacket<A> const& rays, ValueWindows const& w,
+                 vfloat<A> const& t_lo, vfloat<A> const& t_hi)
+      : tree_(&t), mesh_(&m), r(rays), windows(w), lo(t_lo), hi(t_hi) {}
+  TreeView const& tree() const { return *tree_; }
+
+  bool done() const { return false; }
+  bool node_relevant(float vmin, float vmax) const { return vmin <= vmax && windows.overlaps(vmin, vmax); }
+  vmask<A> relevant(vfloat<A> const& vmin, vfloat<A> const& vmax) const { return windows_overlap<A>(windows, vmin, vmax); }
+  vfloat<A> t_lo() const { return lo; }
+  vfloat<A> t_hi() const { return simd::min(hi, best_t); }  // a cell entered past the best cannot be better
+
+  void visit(CellCorners<A, 4> const& c, vmask<A> const& m, vint<A> const& cells) {
+    CellClip<A> const k = clip_tet_window(ray_batch(r), c, m, lo, t_hi());
+    vmask<A> ok = k.hit && k.t_out > lo && k.t_in < best_t && !has_nan_value(c);
+    if (simd::none(ok)) return;
+    ok = ok && windows_overlap<A>(windows, simd::min(k.s_in, k.s_out), simd::max(k.s_in, k.s_out));
+    best_t = simd::select(ok, k.t_in, best_t);
+    cell = simd::select(simd::to_int_mask(ok), cells, cell);
+  }
+  void leaf(uint64_t first, uint32_t n, vmask<A> const& m) {
+    for (uint64_t i = first; i < first + n; ++i) {
+      uint64_t const id = tree_->item(i);
+      ScalarCorners<4> k;
+      read_corner_values(*mesh_, id, k);
+      if (!windows.overlaps(k.lo, k.hi)) continue;  // false for NaN
+      float box_lo[3], box_hi[3];
+      corner_box(mesh_->positions(), k, box_lo, box_hi);
+      vfloat<A> tn;
+      vmask<A> const in_box = m && box_hit(r, box_lo, box_hi, lo, t_hi(), tn);
+      if (simd::none(in_box)) continue;
+      order_corners(mesh_->vertex_count(), k);
+      visit(broadcast<A, 4>(*mesh_, k), in_box, vint<A>(int32_t(id)));
+    }
+  }
+  void leaf_items(vint<A> const& slots, vmask<A> const& m) {
+    vint<A> const cv = slot_cells<A>(*tree_, slots, m);
+    visit(gather_corners<A, 4>(*mesh_, cv, m), m, cv);
+  }
+};
+
+/// The march of one packet (see the file comment; the renderer checks the
+/// mesh fits 32-bit gather offsets). The renderer drives it:
+/// locate() for lanes without a cell, step() for the others, integrating
+/// each step's segments, until its lanes are done.
+template <class A> struct TetMarch {
+  TreeView const& tree;
+  TetMesh const& mesh;
+  int32_t const* across;  ///< TetNeighbours::data()
+  RayPacket<A> const& r;
+  ValueWindows const& windows;
+  /// Cells in a row without a visible segment before a lane asks the tree
+  /// for its next visible cell instead.
+  int max_faint = 4;
+
+  vfloat<A> t;      ///< per lane: where the ray has got to
+  vfloat<A> t_end;  ///< per lane: where it stops
+  vint<A> cell = vint<A>(-1);  ///< the cell the lane steps through next; -1: locate first
+  vint<A> faint = vint<A>(0);  ///< cells in a row without a visible segment
+  /// t at each lane's last locate: a lane that needs another at the same t
+  /// cannot progress (a defensive end; the clip of the located cell
+  /// progresses by construction, see FirstCellQuery).
+  vfloat<A> located_at = vfloat<A>(std::numeric_limits<float>::quiet_NaN());
+
+  /// What a step found per lane: the cell's clip and the piece [a, e] of it
+  /// the ray has not integrated yet; `visible` where that piece may have
+  /// opacity (no NaN corner, values meeting a window, e > a).
+  struct Step {
+    CellClip<A> k;
+    vfloat<A> a, e;
+    vmask<A> visible;
+    Vec3<A> gradient;  ///< the cell's (constant) field gradient, when asked for
+  };
+
+  TetMarch(TreeView const& tr, TetMesh const& m, TetNeighbours const& nb, RayPacket<A> const& rays,
+           ValueWindows const& w, vfloat<A> const& t_start, vfloat<A> const& t_stop)
+      : tree(tr), mesh(m), across(nb.data()), r(rays), windows(w), t(t_start), t_end(t_stop) {}
+
+  vmask<A> has_cell() const { return simd::to_float_mask(cell >= vint<A>(0)); }
+
+  /// The next visible cell for the lanes in `need` (one traversal). Returns
+  /// the lanes that have none: their rays are done.
+  vmask<A> locate(vmask<A> const& need, Traversal how, int threshold) {
+    vmask<A> const stuck = need && t == located_at;
+    vmask<A> const ask = need && !stuck;
+    FirstCellQuery<A> q(tree, mesh, r, windows, t, t_end);
+    switch (how) {
+      case Traversal::packet: traverse_packet<A>(tree, r, ask, q); break;
+      case Traversal::hybrid: traverse_packet<A>(tree, r, ask, q, 0, threshold); break;
+      case Traversal::spmd: traverse_spmd<A>(tree, r, ask, q); break;
+    }
+    vmask<A> const found = ask && simd::to_float_mask(q.cell >= vint<A>(0));
+    cell = simd::select(simd::to_int_mask(found), q.cell, cell);
+    faint = simd::select(simd::to_int_mask(found), vint<A>(0), faint);
+    located_at = simd::select(ask, t, located_at);
+    return need && !found;
+  }
+
+  /// One cell for each lane in `lanes` (all with a cell): its clip and the
+  /// piece past t, then on to the neighbour across the exit face (-1 where
+  /// there is none, the step made no progress or the lane has had
+  /// `max_faint` invisible cells in a row). t advances to the exit.
+  Step step(vmask<A> const& lanes, bool want_gradient) {
+    Step s;
+    CellCorners<A, 4> const c = gather_corners<A, 4>(mesh, cell, lanes);
+    vint<A> exit_face(0);
+    s.k = clip_tet_window(ray_batch(r), c, lanes, t, t_end, &exit_face);
+    vmask<A> const progress = s.k.hit && s.k.t_out > t;
+    s.a = simd::max(s.k.t_in, t), s.e = simd::min(s.k.t_out, t_end);
+    s.visible = progress && s.e > s.a && !has_nan_value(c) &&
+                windows_overlap<A>(windows, simd::min(s.k.s_in, s.k.s_out), simd::max(s.k.s_in, s.k.s_out));
+    if (want_gradient) s.gradient = gradient_tet(c);
+    vmaski<A> const pi = simd::to_int_mask(progress);
+    vint<A> const slot = simd::select(pi, cell * vint<A>(4) + exit_face, vint<A>(0));
+    vint<A> const next = simd::gather(across, slot);
+    faint = simd::select(simd::to_int_mask(s.visible), vint<A>(0), faint + vint<A>(1));
+    t = simd::select(progress, s.e, t);
+    vmaski<A> const go_on = pi && faint <= vint<A>(max_faint);
+    cell = simd::select(simd::to_int_mask(lanes), simd::select(go_on, next, vint<A>(-1)), cell);
+    return s;
+  }
+};
+
+}  // namespace CELLRAY_ISA_NS
+}  // namespace cellray
