@@ -25,8 +25,8 @@ namespace cellray {
 
 /// 16 bytes per tet: `across(cell, f)` is the cell sharing face f, or -1 on
 /// the mesh boundary, at a face shared by more than two cells (duplicated or
-/// overlapping cells: no single neighbour is right) and at faces with a
-/// repeated vertex (degenerate cells).
+/// overlapping cells: no single neighbour is right) and for every face of a
+/// cell with a repeated vertex id (degenerate).
 class TetNeighbours {
  public:
   TetNeighbours() = default;
@@ -67,13 +67,11 @@ inline TetNeighbours build_tet_neighbours(TetMesh const& mesh) {
   if (n == 0) return out;
   // Faces by smallest vertex: offsets per vertex, then face slots (4 cell + f).
   std::vector<uint64_t> start(nv + 1, 0);
+  // A face is keyed by its smallest vertex: v[0] for faces 1..3, v[1] for
+  // face 0. A cell with a repeated id (degenerate) gets no neighbours.
   auto face_ok = [](uint64_t const (&v)[4], int f, uint64_t& a) {
-    // Face f omits corner f; a repeated id makes it degenerate.
-    uint64_t w[3];
-    for (int i = 0, j = 0; i < 4; ++i)
-      if (i != f) w[j++] = v[i];
-    a = w[0];
-    return w[0] != w[1] && w[1] != w[2];
+    a = f == 0 ? v[1] : v[0];
+    return v[0] != v[1] && v[1] != v[2] && v[2] != v[3];
   };
   for (uint64_t c = 0; c < n; ++c) {
     uint64_t v[4];

@@ -1,0 +1,52 @@
+// MarchProbe (tests/support/march_probe.hpp) for one ISA: compiled once per
+// ISA with that ISA's flags. Drives TetMarch as the renderer does
+// (render_impl.hpp, integrate_march), without the integration.
+
+#include <cellray/traverse/march.hpp>
+
+#include "support/march_probe.hpp"
+
+namespace cellray::test {
+
+template <class Arch>
+void MarchProbe<Arch>::run(TetMesh const& mesh, MinMaxBvh const& bvh, TetNeighbours const& nb,
+                           ValueWindows const& windows, Ray const* rays, int n, int how, int max_faint,
+                           MarchProbeOut* out) {
+  constexpr int W = width<Arch>;
+  TreeView const tree(bvh);
+  for (int first = 0; first < n; first += W) {
+    int const m = n - first < W ? n - first : W;
+    RayPacket<Arch> const r = load_rays<Arch>(rays + first, m);
+    TetMarch<Arch> march(tree, mesh, nb, r, windows, r.tmin, r.tmax);
+    march.max_faint = max_faint;
+    vmask<Arch> live = simd::mask_from_bits<Arch>(m >= 32 ? ~0u : (1u << m) - 1u);
+    for (int l = 0; l < m; ++l) out[first + l] = MarchProbeOut{};
+    while (simd::any(live)) {
+      vmask<Arch> const has = live && march.has_cell();
+      vmask<Arch> const need = live && !has;
+      if (simd::any(need)) {  // locate as soon as any lane needs it: the renderer's order differs, not its result
+        for (uint32_t b = simd::movemask(need); b; b &= b - 1) ++out[first + __builtin_ctz(b)].locates;
+        live = live && !march.locate(need, Traversal(how), W / 2);
+        continue;
+      }
+      auto const cells = simd::to_array<Arch>(march.cell);
+      auto const st = march.step(has, false);
+      auto const tin = simd::to_array<Arch>(st.k.t_in), tout = simd::to_array<Arch>(st.k.t_out);
+      auto const sin = simd::to_array<Arch>(st.k.s_in), sout = simd::to_array<Arch>(st.k.s_out);
+      uint32_t const vis = simd::movemask(st.visible);
+      for (uint32_t b = simd::movemask(has); b; b &= b - 1) {
+        int const l = __builtin_ctz(b);
+        MarchProbeOut& o = out[first + l];
+        ++o.steps;
+        if (((vis >> l) & 1u) && o.count < march_capacity)
+          o.seg[o.count++] = CellSegment{tin[size_t(l)], tout[size_t(l)], sin[size_t(l)], sout[size_t(l)], 0,
+                                         uint64_t(uint32_t(cells[size_t(l)]))};
+      }
+      live = live && march.t < march.t_end;
+    }
+  }
+}
+
+CELLRAY_INSTANTIATE_ENTRY(MarchProbe)
+
+}  // namespace cellray::test

@@ -1,0 +1,34 @@
+#pragma once
+// Test-only entry point: TetMarch (traverse/march.hpp) driven over host
+// rays, one packet of W rays at a time, per ISA (tests/isa_traverse_march.cpp
+// instantiates it), recording every visible segment a lane steps through.
+
+#include <cellray/bvh/bvh.hpp>
+#include <cellray/dispatch/dispatch.hpp>
+#include <cellray/mesh/cell_mesh.hpp>
+#include <cellray/mesh/neighbours.hpp>
+#include <cellray/traverse/ray.hpp>
+#include <cellray/traverse/tree_view.hpp>
+
+namespace cellray::test {
+
+inline constexpr int march_capacity = 256;
+
+/// One ray's march: its visible segments in the order stepped (t_in, t_out
+/// and end values of the cell's clip; `cell`), how many steps and locates.
+struct MarchProbeOut {
+  int count = 0;
+  int steps = 0, locates = 0;
+  CellSegment seg[march_capacity];
+};
+
+/// Marches `rays[i]` over [tmin, tmax] with `windows` as visibility filter,
+/// `max_faint` invisible cells before a locate, traversal `how` (0 packet,
+/// 1 SPMD, 2 hybrid) for the locates. `out` has `n` entries.
+template <class Arch> struct MarchProbe {
+  static void run(TetMesh const& mesh, MinMaxBvh const& bvh, TetNeighbours const& nb, ValueWindows const& windows,
+                  Ray const* rays, int n, int how, int max_faint, MarchProbeOut* out);
+};
+CELLRAY_EXTERN_ENTRY(MarchProbe)
+
+}  // namespace cellray::test

@@ -1,0 +1,123 @@
+// Face neighbours of tet meshes (mesh/neighbours.hpp) against a brute-force
+// map from each face's sorted vertex triple to the cells that have it: the
+// cell across face f shares exactly the three vertices other than the
+// cell's f-th smallest, boundary faces have none, and so do faces of more
+// than two cells and every face of a degenerate cell.
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <array>
+#include <map>
+#include <vector>
+
+#include <cellray/mesh/generate.hpp>
+#include <cellray/mesh/neighbours.hpp>
+
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_mesh_neighbours {
+
+using namespace cellray;
+
+namespace {
+
+using Face = std::array<uint64_t, 3>;
+
+std::array<uint64_t, 4> sorted_ids(TetMesh const& m, uint64_t c) {
+  std::array<uint64_t, 4> v{m.vertex(c, 0), m.vertex(c, 1), m.vertex(c, 2), m.vertex(c, 3)};
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
+Face face_of(std::array<uint64_t, 4> const& v, int f) {
+  Face out{};
+  for (int i = 0, j = 0; i < 4; ++i)
+    if (i != f) out[size_t(j++)] = v[size_t(i)];
+  return out;
+}
+
+bool degenerate(std::array<uint64_t, 4> const& v) { return v[0] == v[1] || v[1] == v[2] || v[2] == v[3]; }
+
+/// The expected neighbour of every (cell, face) by brute force.
+std::vector<int32_t> expected(TetMesh const& m) {
+  std::map<Face, std::vector<uint64_t>> cells_of;
+  for (uint64_t c = 0; c < m.cell_count(); ++c) {
+    auto const v = sorted_ids(m, c);
+    if (degenerate(v)) continue;
+    for (int f = 0; f < 4; ++f) cells_of[face_of(v, f)].push_back(c);
+  }
+  std::vector<int32_t> out(4 * m.cell_count(), -1);
+  for (uint64_t c = 0; c < m.cell_count(); ++c) {
+    auto const v = sorted_ids(m, c);
+    if (degenerate(v)) continue;
+    for (int f = 0; f < 4; ++f) {
+      auto const& list = cells_of[face_of(v, f)];
+      if (list.size() == 2) out[4 * c + uint64_t(f)] = int32_t(list[0] == c ? list[1] : list[0]);
+    }
+  }
+  return out;
+}
+
+void check_against_brute_force(TetMesh const& m) {
+  TetNeighbours const nb = build_tet_neighbours(m);
+  REQUIRE(nb.cell_count() == m.cell_count());
+  CHECK(nb.memory_bytes() == 16 * m.cell_count());
+  std::vector<int32_t> const want = expected(m);
+  int wrong = 0;
+  for (uint64_t c = 0; c < m.cell_count(); ++c)
+    for (int f = 0; f < 4; ++f) wrong += nb.across(c, f) != want[4 * c + uint64_t(f)];
+  CHECK(wrong == 0);
+}
+
+}  // namespace
+
+TEST_CASE("neighbours: a conforming jittered tet mesh", "[mesh][neighbours]") {
+  auto const g = generate_tets(6 * 6 * 6 * 6, 2);
+  TetMesh const m = g.mesh();
+  check_against_brute_force(m);
+  // Counted without the brute force: interior faces pair up, the cube's
+  // surface (2 triangles per lattice square, 6 sides) has none.
+  TetNeighbours const nb = build_tet_neighbours(m);
+  uint64_t boundary = 0;
+  for (uint64_t c = 0; c < m.cell_count(); ++c)
+    for (int f = 0; f < 4; ++f) {
+      int32_t const o = nb.across(c, f);
+      if (o < 0) {
+        ++boundary;
+        continue;
+      }
+      // Symmetric: the neighbour has c across one of its faces, the same one.
+      int back = 0;
+      for (int k = 0; k < 4; ++k) back += nb.across(uint64_t(o), k) == int32_t(c);
+      CHECK(back == 1);
+    }
+  CHECK(boundary == uint64_t(6 * 2 * g.lattice * g.lattice));
+}
+
+TEST_CASE("neighbours: any corner order, 64-bit indices, duplicated and degenerate cells", "[mesh][neighbours]") {
+  auto const g = generate_tets(6 * 4 * 4 * 4, 4);
+  std::vector<uint64_t> cells(g.cells.begin(), g.cells.end());
+  // Corner order rotated per cell: faces are named by sorted ids, not by it.
+  for (size_t c = 0; c + 4 <= cells.size(); c += 4) std::rotate(cells.begin() + long(c), cells.begin() + long(c + c / 4 % 4), cells.begin() + long(c + 4));
+  // A duplicated cell (its faces now belong to three cells or, on the
+  // surface, two: the copies) and two degenerate ones.
+  cells.insert(cells.end(), cells.begin() + 40, cells.begin() + 44);
+  cells.insert(cells.end(), {cells[0], cells[0], cells[1], cells[2]});
+  cells.insert(cells.end(), {cells[8], cells[9], cells[9], cells[9]});
+  TetMesh const m{view(g.xyz), view(cells), view(g.field)};
+  check_against_brute_force(m);
+  TetNeighbours const nb = build_tet_neighbours(m);
+  for (int f = 0; f < 4; ++f) CHECK(nb.across(m.cell_count() - 1, f) == -1);
+}
+
+TEST_CASE("neighbours: empty meshes and bad vertex ids", "[mesh][neighbours]") {
+  TetMesh const empty;
+  CHECK(build_tet_neighbours(empty).cell_count() == 0);
+  std::vector<float> const xyz(12, 0.f);
+  std::vector<uint32_t> const bad{0, 1, 2, 7};
+  TetMesh const m{view(xyz), view(bad)};
+  CHECK_THROWS_WITH(build_tet_neighbours(m), Catch::Contains("cell 0") && Catch::Contains("vertex 7"));
+}
+
+}  // namespace test_mesh_neighbours

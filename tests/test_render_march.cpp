@@ -1,0 +1,127 @@
+// Cell-segment DVR marching through face neighbours (render_impl.hpp,
+// integrate_march) renders what the tree-only path renders: the same
+// segments, pieces and compositing, so the images agree to rounding, and
+// both stay within the reference renderer's tolerance. Meshes that make a
+// march leave and re-find its way: holes, NaN cells, a value window with
+// long transparent stretches, early termination, shading; a real mesh.
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <cellray/io/read_mesh.hpp>
+#include <cellray/mesh/generate.hpp>
+#include <cellray/mesh/neighbours.hpp>
+
+#include "support/render_fixtures.hpp"
+
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_render_march {
+
+using namespace cellray;
+
+using test::busy_tf;
+using test::camera_for;
+using test::diagonal;
+using test::report;
+
+namespace {
+
+/// The image with face neighbours (march) and without (tree), compared;
+/// and the march against the reference.
+void check_march(TetMesh const& mesh, DvrParams const& p, int size, std::string const& what, double max_ref_rmse) {
+  MinMaxBvh const bvh = build_minmax_bvh(mesh);
+  TetNeighbours const nb = build_tet_neighbours(mesh);
+  Scene const tree(mesh, bvh), march(mesh, bvh, nullptr, &nb);
+  Camera const cam = camera_for(tree, size, size);
+  RenderOptions const o = test::isa_options();
+  Image const a = render_dvr(march, cam, p, o), b = render_dvr(tree, cam, p, o);
+  ImageDiff const d = compare_images(a, b, 0.5);
+  report(what + ": march vs tree", d);
+  CHECK(d.nonfinite == 0);
+  CHECK(d.rmse < 0.01);
+  CHECK(d.max < 0.5);
+  if (max_ref_rmse > 0) {
+    ImageDiff const r = compare_images(a, render_dvr_reference(tree, cam, p), 2.0);
+    report(what + ": march vs reference", r);
+    CHECK(r.rmse < max_ref_rmse);
+  }
+}
+
+DvrParams segments(TransferFunction tf, float step) {
+  DvrParams p;
+  p.tf = std::move(tf);
+  p.mode = DvrMode::segments;
+  p.step = step;
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("DVR march: jittered tets, shading, early termination, every traversal", "[render][dvr][isa]") {
+  auto const g = generate_tets(6 * 10 * 10 * 10, 3);
+  TetMesh const mesh = g.mesh();
+  float const diag = std::sqrt(12.f);
+  DvrParams p = segments(busy_tf(0.1f, 0.9f, diag / 8.f), diag / 500.f);
+  check_march(mesh, p, 48, "jittered 6000 tets", 0.3);
+  p.shading.enabled = true;
+  check_march(mesh, p, 40, "jittered, shaded", 0.3);
+  p.shading.enabled = false;
+  p.tf.unit_distance = diag / 200.f;  // dense: most rays terminate inside
+  check_march(mesh, p, 40, "jittered, dense (early termination)", 0.3);
+}
+
+TEST_CASE("DVR march: holes, NaN cells and transparent stretches send rays back to the tree", "[render][dvr][isa]") {
+  auto g = generate_tets(6 * 10 * 10 * 10, 8);
+  for (size_t v = 0; v < g.field.size(); v += 53) g.field[v] = std::numeric_limits<float>::quiet_NaN();
+  // Remove a shell: rays leave the mesh and enter it again.
+  std::vector<uint32_t> cells;
+  for (size_t c = 0; c + 4 <= g.cells.size(); c += 4) {
+    glm::vec3 m(0.f);
+    for (int i = 0; i < 4; ++i) m += glm::vec3(g.xyz[3 * g.cells[c + i]], g.xyz[3 * g.cells[c + i] + 1], g.xyz[3 * g.cells[c + i] + 2]);
+    float const r = glm::length(0.25f * m);
+    if (r < 0.45f || r > 0.7f) cells.insert(cells.end(), g.cells.begin() + long(c), g.cells.begin() + long(c) + 4);
+  }
+  TetMesh const mesh{view(g.xyz), view(cells), view(g.field)};
+  float const diag = std::sqrt(12.f);
+  // Opacity only in a narrow band of values: long invisible stretches.
+  TransferFunction tf;
+  tf.values = {0.f, 0.55f, 0.6f, 0.65f, 1.f};
+  tf.rgba = {{0.1f, 0.2f, 0.9f, 0.f}, {0.1f, 0.2f, 0.9f, 0.f}, {0.9f, 0.6f, 0.1f, 0.8f}, {0.9f, 0.1f, 0.1f, 0.f},
+             {0.9f, 0.1f, 0.1f, 0.f}};
+  tf.unit_distance = diag / 20.f;
+  check_march(mesh, segments(tf, diag / 500.f), 48, "shell removed, NaN cells, narrow band", 0.3);
+}
+
+TEST_CASE("DVR march: component8 84k, the benchmark's transfer function", "[render][dvr][isa][data]") {
+  auto const g = read_mesh(CELLRAY_SHARED_DATA "/openfoam/component8_heat_84k.vtk");
+  TetMesh const mesh = g.tet_mesh().with_array("T");
+  glm::vec3 lo(1e30f), hi(-1e30f);
+  for (uint64_t v = 0; v < mesh.vertex_count(); ++v) lo = glm::min(lo, mesh.position(v)), hi = glm::max(hi, mesh.position(v));
+  DvrParams p = segments(transfer_function_preset("cool-warm", 273.f, 573.f), glm::length(hi - lo) / 250.f);
+  p.tf.unit_distance = glm::length(hi - lo) / 10.f;
+  check_march(mesh, p, 96, "component8 84k", 0);
+}
+
+TEST_CASE("DVR march: neighbours of another mesh are refused, several parts use the tree", "[render][dvr]") {
+  auto const g = generate_tets(6 * 4 * 4 * 4, 1), h = generate_tets(6 * 5 * 5 * 5, 1);
+  TetMesh const a = g.mesh(), b = h.mesh();
+  MinMaxBvh const bvh_a = build_minmax_bvh(a), bvh_b = build_minmax_bvh(b);
+  TetNeighbours const nb_b = build_tet_neighbours(b);
+  DvrParams const p = segments(busy_tf(0.1f, 0.9f, 1.f), 0.01f);
+  Scene const wrong(a, bvh_a, nullptr, &nb_b);
+  Camera const cam = camera_for(wrong, 8, 8);
+  CHECK_THROWS_WITH(render_dvr(wrong, cam, p), Catch::Contains("face neighbours") && Catch::Contains("part 0"));
+  Scene two(a, bvh_a, nullptr, nullptr);
+  two.tets.push_back({b, &bvh_b, nullptr, &nb_b});
+  Scene two_tree(a, bvh_a);
+  two_tree.tets.push_back({b, &bvh_b, nullptr, nullptr});
+  ImageDiff const d = compare_images(render_dvr(two, cam, p), render_dvr(two_tree, cam, p), 0.5);
+  CHECK(d.max == 0.0);
+}
+
+}  // namespace test_render_march

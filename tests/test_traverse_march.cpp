@@ -1,0 +1,270 @@
+// Tet marching (traverse/march.hpp) against a brute-force double-precision
+// oracle (every cell clipped by cells/reference.hpp): the visible segments a
+// march steps through must cover the ray exactly as the mesh's cells do, one
+// after the other, with each cell's own crossing, and the march must really
+// march (one tree query per stretch of mesh, not one per cell). Jittered and
+// regular lattices (rays along shared edges, in shared faces, through
+// vertices), a mesh with a hole the rays leave and re-enter, NaN cells, added
+// degenerate cells, a value window with long transparent stretches.
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <utility>
+#include <vector>
+
+#include <glm/vec2.hpp>
+
+#include <cellray/bvh/build.hpp>
+#include <cellray/cells/reference.hpp>
+#include <cellray/mesh/generate.hpp>
+#include <cellray/mesh/neighbours.hpp>
+
+#include "support/march_probe.hpp"
+#include "support/test_isa.hpp"
+
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_traverse_march {
+
+using namespace cellray;
+using test::MarchProbeOut;
+
+namespace {
+
+struct Crossing {
+  double t_in, t_out, s_in, s_out;
+  uint64_t cell;
+};
+
+/// Every cell crossed by the ray's line within [tmin, tmax], NaN cells
+/// excluded, only crossings whose values meet `w` (as the march's filter).
+std::vector<Crossing> oracle(TetMesh const& mesh, Ray const& r, ValueWindows const& w) {
+  ref::Ray const rr{glm::dvec3(r.org), glm::dvec3(r.dir)};
+  std::vector<Crossing> out;
+  for (uint64_t c = 0; c < mesh.cell_count(); ++c) {
+    ref::Tet const t = ref::load(mesh, c);
+    if (ref::has_nan(t)) continue;
+    ref::Clip const k = ref::clip(t, rr);
+    if (!k.hit || k.t_out < double(r.tmin) || k.t_in > double(r.tmax)) continue;
+    if (!w.overlaps(float(std::min(k.s_in, k.s_out)), float(std::max(k.s_in, k.s_out)))) continue;
+    out.push_back({k.t_in, k.t_out, k.s_in, k.s_out, c});
+  }
+  return out;
+}
+
+/// Length of the union of [a, b] intervals clipped to [lo, hi].
+double union_length(std::vector<std::pair<double, double>> v, double lo, double hi) {
+  std::sort(v.begin(), v.end());
+  double total = 0, end = lo;
+  for (auto [a, b] : v) {
+    a = std::max(a, end), b = std::min(b, hi);
+    if (b > a) total += b - a, end = b;
+  }
+  return total;
+}
+
+struct Marched {
+  std::vector<MarchProbeOut> out;
+  int locates = 0, steps = 0;
+};
+
+Marched march(TetMesh const& mesh, std::vector<Ray> const& rays, ValueWindows const& w, int how, int max_faint = 4) {
+  MinMaxBvh const bvh = build_minmax_bvh(mesh);
+  TetNeighbours const nb = build_tet_neighbours(mesh);
+  Marched m;
+  m.out.resize(rays.size());
+  dispatch<test::MarchProbe>(test::isa(), mesh, bvh, nb, w, rays.data(), int(rays.size()), how, max_faint,
+                             m.out.data());
+  for (auto const& o : m.out) m.locates += o.locates, m.steps += o.steps;
+  return m;
+}
+
+/// One ray's march against the oracle. `generic`: no ray along an edge or
+/// in a face, so every oracle crossing longer than `tiny` must be listed.
+/// Tolerances as tests/test_traverse_segment_query.cpp (positions O(1)).
+void check_ray(TetMesh const& mesh, Ray const& r, ValueWindows const& w, MarchProbeOut const& m, bool generic) {
+  double const tol = 1e-4, tiny = 1e-3;
+  std::vector<Crossing> const ref = oracle(mesh, r, w);
+  INFO("ray org " << r.org.x << "," << r.org.y << "," << r.org.z << " dir " << r.dir.x << "," << r.dir.y << ","
+                  << r.dir.z << " window " << r.tmin << ".." << r.tmax << ": " << m.count << " segments, "
+                  << ref.size() << " in the oracle");
+  REQUIRE(m.count < test::march_capacity);
+  std::vector<std::pair<double, double>> mi, ri;
+  double prev_end = double(r.tmin);
+  int unmatched = 0;
+  for (int i = 0; i < m.count; ++i) {
+    CellSegment const& s = m.seg[i];
+    // One after the other: each piece starts where the last ended, or later.
+    double const a = std::max(double(s.t_in), prev_end);
+    CHECK(double(s.t_out) > prev_end);
+    mi.push_back({a, double(s.t_out)});
+    prev_end = double(s.t_out);
+    auto const it = std::find_if(ref.begin(), ref.end(), [&](Crossing const& x) { return x.cell == s.cell; });
+    if (it == ref.end()) {
+      unmatched += generic && s.t_out - s.t_in > tiny;
+      continue;
+    }
+    CHECK(std::abs(double(s.t_in) - it->t_in) <= tol);
+    CHECK(std::abs(double(s.t_out) - it->t_out) <= tol);
+    CHECK(std::abs(double(s.v_in) - it->s_in) <= tol);
+    CHECK(std::abs(double(s.v_out) - it->s_out) <= tol);
+  }
+  CHECK(unmatched == 0);
+  for (Crossing const& x : ref) ri.push_back({x.t_in, x.t_out});
+  double const lo = double(r.tmin), hi = double(r.tmax);
+  CHECK(std::abs(union_length(mi, lo, hi) - union_length(ri, lo, hi)) <= tol * double(2 + m.count));
+  if (!generic) return;
+  for (Crossing const& x : ref) {
+    if (x.t_out - x.t_in <= tiny || x.t_out < lo + tiny || x.t_in > hi - tiny) continue;
+    bool found = false;
+    for (int i = 0; i < m.count && !found; ++i) found = m.seg[i].cell == x.cell;
+    INFO("cell " << x.cell << " t " << x.t_in << ".." << x.t_out);
+    CHECK(found);
+  }
+}
+
+std::vector<Ray> random_rays(int n, uint32_t seed, bool windows) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-1.f, 1.f), u01(0.f, 1.f);
+  std::vector<Ray> rays;
+  for (int i = 0; i < n; ++i) {
+    glm::vec3 const target(u(rng), u(rng), u(rng));
+    glm::vec3 org = glm::vec3(u(rng), u(rng), u(rng)) * 0.3f + glm::vec3(0.f, 0.f, -2.5f);
+    if (i % 3 == 2) org = glm::vec3(u(rng), u(rng), u(rng)) * 2.5f;  // some start inside the mesh
+    Ray r{org, 0.f, target - org, 1e30f};
+    if (windows) r.tmin = 0.6f + 0.4f * u01(rng), r.tmax = r.tmin + 0.05f + 0.3f * u01(rng);
+    rays.push_back(r);
+  }
+  return rays;
+}
+
+/// Rays in the planes, along the lines and through the vertices of the
+/// regular lattice of `n` cells per side over [-1, 1]^3.
+std::vector<Ray> lattice_rays(int n) {
+  std::vector<Ray> rays;
+  float const h = 2.f / float(n);
+  for (int i = 1; i < n; i += 2)
+    for (int j = 1; j < n; j += 2) {
+      float const a = -1.f + h * float(i), b = -1.f + h * float(j);
+      rays.push_back({{a, b, -1.5f}, 0.f, {0.f, 0.f, 1.f}, 3.f});                    // along an edge
+      rays.push_back({{-1.5f, a, b + 0.5f * h}, 0.f, {1.f, 0.f, 0.f}, 3.f});         // in a face plane
+      rays.push_back({{-1.5f, -1.5f, b}, 0.f, {1.f, 1.f, 0.f}, 3.f});                // face diagonals
+      rays.push_back({{a, -1.5f, -1.5f}, 0.f, {0.f, 1.f, 1.f}, 3.f});                // through vertices
+      rays.push_back({{-1.5f, -1.5f, -1.5f}, 0.f, {1.f, 1.f + 0.1f * a, 1.f}, 4.f});  // near the body diagonal
+    }
+  return rays;
+}
+
+/// The generated mesh's cells with those whose centroid satisfies `drop`
+/// removed (same vertices).
+std::vector<uint32_t> cells_without(GeneratedMesh<4> const& g, bool (*drop)(glm::vec3)) {
+  std::vector<uint32_t> out;
+  for (size_t c = 0; c + 4 <= g.cells.size(); c += 4) {
+    glm::vec3 m(0.f);
+    for (int i = 0; i < 4; ++i) m += glm::vec3(g.xyz[3 * g.cells[c + i]], g.xyz[3 * g.cells[c + i] + 1], g.xyz[3 * g.cells[c + i] + 2]);
+    if (!drop(0.25f * m)) out.insert(out.end(), g.cells.begin() + long(c), g.cells.begin() + long(c) + 4);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("march: every visible crossing, in order, with one tree query per ray on a convex mesh", "[traverse][isa]") {
+  auto const g = generate_tets(6 * 8 * 8 * 8, 3);
+  TetMesh const mesh = g.mesh();
+  ValueWindows const all;
+  for (bool windows : {false, true}) {
+    std::vector<Ray> const rays = random_rays(120, windows ? 2 : 1, windows);
+    for (int how : {0, 1, 2}) {
+      Marched const m = march(mesh, rays, all, how);
+      for (size_t i = 0; i < rays.size(); ++i) check_ray(mesh, rays[i], all, m.out[i], true);
+      // A convex mesh, every cell visible: a generic ray is located once,
+      // marches to the boundary and asks once more (nothing behind it). A
+      // march that went back to the tree at every cell would have ~steps
+      // locates.
+      INFO("traversal " << how << ", windows " << windows << ": " << m.locates << " locates, " << m.steps << " steps");
+      CHECK(m.locates <= 2 * int(rays.size()));
+      CHECK(m.steps > 5 * int(rays.size()));
+    }
+  }
+}
+
+TEST_CASE("march: rays along shared edges, in shared faces and through vertices of a regular lattice",
+          "[traverse][isa]") {
+  auto const g = generate_tets(6 * 6 * 6 * 6, 1, 0.f);
+  TetMesh const mesh = g.mesh();
+  std::vector<Ray> const rays = lattice_rays(6);
+  ValueWindows const all;
+  Marched const m = march(mesh, rays, all, 0);
+  for (size_t i = 0; i < rays.size(); ++i) check_ray(mesh, rays[i], all, m.out[i], false);
+}
+
+TEST_CASE("march: rays leave the mesh through a hole and are located again behind it", "[traverse][isa]") {
+  auto const g = generate_tets(6 * 8 * 8 * 8, 5);
+  // A slab through the middle, |z| < 0.25, removed: every ray along z crosses it.
+  std::vector<uint32_t> const cells = cells_without(g, [](glm::vec3 c) { return std::abs(c.z) < 0.25f; });
+  TetMesh const mesh{view(g.xyz), view(cells), view(g.field)};
+  std::vector<Ray> rays;
+  for (int i = 0; i < 64; ++i)
+    rays.push_back({{-0.9f + 0.028f * float(i), 0.7f - 0.021f * float(i), -2.f}, 0.f, {0.05f, 0.03f, 1.f}, 10.f});
+  ValueWindows const all;
+  Marched const m = march(mesh, rays, all, 0);
+  for (size_t i = 0; i < rays.size(); ++i) check_ray(mesh, rays[i], all, m.out[i], true);
+  CHECK(m.locates >= 2 * int(rays.size()));  // in front of the hole and behind it
+}
+
+TEST_CASE("march: NaN cells and degenerate cells are gaps, not ends", "[traverse][isa]") {
+  auto g = generate_tets(6 * 7 * 7 * 7, 6);
+  // NaN at a few interior vertices: their cells are invisible.
+  for (size_t v = 0; v < g.field.size(); v += 37) g.field[v] = std::numeric_limits<float>::quiet_NaN();
+  // Degenerate cells: a repeated vertex id over existing vertices, and
+  // zero-volume cells over four new coplanar vertices inside the mesh.
+  std::vector<uint32_t> cells = g.cells;
+  for (uint32_t c = 0; c + 4 <= uint32_t(g.cells.size()); c += 4 * 97)
+    cells.insert(cells.end(), {g.cells[c], g.cells[c], g.cells[c + 1], g.cells[c + 2]});
+  std::vector<float> xyz = g.xyz, field = g.field;
+  for (int k = 0; k < 6; ++k) {
+    uint32_t const v = uint32_t(xyz.size() / 3);
+    float const z = -0.6f + 0.25f * float(k);
+    for (glm::vec2 p : {glm::vec2(-0.5f, -0.4f), glm::vec2(0.6f, -0.3f), glm::vec2(0.1f, 0.7f), glm::vec2(0.f, 0.f)}) {
+      xyz.insert(xyz.end(), {p.x, p.y, z});
+      field.push_back(0.5f);
+    }
+    cells.insert(cells.end(), {v, v + 1, v + 2, v + 3});
+  }
+  TetMesh const mesh{view(xyz), view(cells), view(field)};
+  ValueWindows const all;
+  std::vector<Ray> const rays = random_rays(90, 7, false);
+  Marched const m = march(mesh, rays, all, 0);
+  for (size_t i = 0; i < rays.size(); ++i) check_ray(mesh, rays[i], all, m.out[i], true);
+}
+
+TEST_CASE("march: a value window skips transparent stretches through the tree, whatever max_faint", "[traverse][isa]") {
+  auto const g = generate_tets(6 * 8 * 8 * 8, 9);
+  TetMesh const mesh = g.mesh();
+  float const lo = *std::min_element(g.field.begin(), g.field.end()), hi = *std::max_element(g.field.begin(), g.field.end());
+  ValueWindows w;
+  w.lo[0] = lo + 2.f * (hi - lo) / 3.f, w.hi[0] = hi;  // the top third, as the cool-warm preset
+  std::vector<Ray> const rays = random_rays(120, 10, false);
+  int locates[3] = {}, steps[3] = {};
+  int const faint[3] = {0, 4, 1000};
+  for (int k = 0; k < 3; ++k) {
+    Marched const m = march(mesh, rays, w, 0, faint[k]);
+    locates[k] = m.locates, steps[k] = m.steps;
+    for (size_t i = 0; i < rays.size(); ++i) check_ray(mesh, rays[i], w, m.out[i], true);
+  }
+  // Going back to the tree after every invisible cell locates most often
+  // and steps least; never going back (1000) marches every transparent
+  // stretch to the mesh's boundary.
+  INFO("max_faint 0, 4, 1000: locates " << locates[0] << ", " << locates[1] << ", " << locates[2] << "; steps "
+                                        << steps[0] << ", " << steps[1] << ", " << steps[2]);
+  CHECK(locates[0] >= locates[1]);
+  CHECK(locates[1] >= locates[2]);
+  CHECK(steps[0] < steps[1]);
+  CHECK(steps[1] < steps[2]);
+}
+
+}  // namespace test_traverse_march
