@@ -65,7 +65,7 @@ struct Subject {
   float vmin = 0.f, vmax = 0.f;
 
   Scene scene() const { return hex ? Scene(hexes, bvh) : Scene(tets, bvh); }
-  /// With the face neighbours (tets): what DVR uses.
+  /// With the face neighbours (tets): what DVR and marched AO rays use.
   Scene dvr_scene() const { return hex ? Scene(hexes, bvh) : Scene(tets, bvh, nullptr, &neighbours); }
   uint64_t cells() const { return hex ? hexes.cell_count() : tets.cell_count(); }
 };
@@ -241,7 +241,7 @@ double cpu_seconds(std::function<void()> const& f) {
 void secondary_rounds(Subject const& s, Options const& o, std::vector<std::pair<SecondaryQuery, Traversal>> const& variants,
                       int rounds, std::vector<std::vector<double>>& times) {
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, 1);
-  Scene const scene = s.scene();
+  Scene const scene = s.dvr_scene();  // with the face neighbours: `march` uses them, the others not
   Camera const cam = camera_for(s, o.size / 2);
   IsoParams const plain = iso_params(s), lit = lit_params(s, cam);
   times.assign(variants.size(), {});
@@ -336,6 +336,7 @@ Row secondary_row(Subject const& s, Options const& o) {
   // the shortest time.
   Variant const variants[] = {{"packet", SecondaryQuery::nearest, Traversal::packet},
                               {"grouped", SecondaryQuery::grouped, Traversal::packet},
+                              {"march", SecondaryQuery::march, Traversal::packet},
                               {"sorted", SecondaryQuery::sorted, Traversal::packet},
                               {"occlusion", SecondaryQuery::occlusion, Traversal::packet},
                               {"spmd", SecondaryQuery::nearest, Traversal::spmd},

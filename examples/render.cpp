@@ -303,7 +303,7 @@ struct Options {
   std::string out = "cellray.png";
   std::string isa = "auto";
   std::string traversal = "packet";
-  std::string secondary = "grouped";
+  std::string secondary = "march";
   int threads = 0;
   int frames = 1;
   bool shadows = false;
@@ -407,8 +407,9 @@ void add_options(CLI::App& app, Options& o) {
       ->capture_default_str();
   app.add_option("--secondary", o.secondary,
                  "Shadow/AO ray query: nearest hit, any hit (occlusion), any hit with AO rays sorted by direction, "
-                 "or sorted and 4 packets per traversal (grouped; same image, fastest)")
-      ->check(CLI::IsMember({"nearest", "occlusion", "sorted", "grouped"}))
+                 "sorted and 4 packets per traversal (grouped), or AO rays marching from their hit cells through face "
+                 "neighbours (march: tet meshes; same image)")
+      ->check(CLI::IsMember({"nearest", "occlusion", "sorted", "grouped", "march"}))
       ->capture_default_str();
   app.add_option("--threads", o.threads, "Worker threads (default: all cores)")->check(CLI::Range(1, 4096));
   app.add_option("--frames", o.frames, "Render N times and report the median time")
@@ -690,8 +691,9 @@ int run(Options const& o) {
   // Cell-segment DVR of a tet mesh marches through face neighbours.
   TetNeighbours neighbours;
   double neighbours_ms = 0;
-  bool const march = o.mode == "dvr" && o.dvr_mode == "segments" && !o.no_march && !o.reference && !l.tets.empty() &&
-                     l.hexes.empty();
+  bool const march = ((o.mode == "dvr" && o.dvr_mode == "segments" && !o.no_march) ||
+                      (o.mode == "iso" && o.ao > 0 && o.secondary == "march")) &&
+                     !o.reference && !l.tets.empty() && l.hexes.empty();
   if (march) {
     Phase ph(progress, "finding face neighbours of " + std::to_string(l.tets.cell_count()) + " tets");
     neighbours = build_tet_neighbours(l.tets);
@@ -720,6 +722,7 @@ int run(Options const& o) {
   ro.secondary_query = o.secondary == "nearest"     ? SecondaryQuery::nearest
                        : o.secondary == "occlusion" ? SecondaryQuery::occlusion
                        : o.secondary == "sorted"    ? SecondaryQuery::sorted
+                       : o.secondary == "march"     ? SecondaryQuery::march
                                                     : SecondaryQuery::grouped;
 
   IsoParams ip;

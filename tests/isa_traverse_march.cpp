@@ -49,4 +49,33 @@ void MarchProbe<Arch>::run(TetMesh const& mesh, MinMaxBvh const& bvh, TetNeighbo
 
 CELLRAY_INSTANTIATE_ENTRY(MarchProbe)
 
+template <class Arch>
+void MarchOcclusionProbe<Arch>::run(TetMesh const& mesh, MinMaxBvh const& bvh, TetNeighbours const& nb,
+                                    Ray const* rays, int32_t const* start, int n, IsoSet const& isos,
+                                    uint8_t* occluded, uint8_t* undecided, float* t_done) {
+  constexpr int W = width<Arch>;
+  TreeView const tree(bvh);
+  CellIsoOptions const exact;
+  for (int first = 0; first < n; first += W) {
+    int const m = n - first < W ? n - first : W;
+    RayPacket<Arch> const r = load_rays<Arch>(rays + first, m);
+    alignas(64) int32_t cells[W] = {};
+    for (int l = 0; l < m; ++l) cells[l] = start[first + l];
+    vmask<Arch> const active = simd::mask_from_bits<Arch>(m >= 32 ? ~0u : (1u << m) - 1u);
+    vmask<Arch> und;
+    vfloat<Arch> done;
+    uint32_t const occ = simd::movemask(
+        march_occluded<Arch>(tree, mesh, nb, r, active, simd::load<Arch>(cells), isos, exact, und, done));
+    uint32_t const ub = simd::movemask(und);
+    auto const d = simd::to_array<Arch>(done);
+    for (int l = 0; l < m; ++l) {
+      occluded[first + l] = uint8_t(occ >> l & 1u);
+      undecided[first + l] = uint8_t(ub >> l & 1u);
+      t_done[first + l] = d[size_t(l)];
+    }
+  }
+}
+
+CELLRAY_INSTANTIATE_ENTRY(MarchOcclusionProbe)
+
 }  // namespace cellray::test

@@ -2,15 +2,19 @@
 // query renders the image of the nearest-hit query bit for bit (opaque
 // surfaces, semi-transparent ones of one opacity, and of several opacities,
 // where shadows keep the nearest hit's opacity), on tets, hexes and a
-// two-part scene; and the default matches the double-precision reference
+// two-part scene, tets with face neighbours (AO rays march) with and
+// without holes; and the default matches the double-precision reference
 // renderer with shadows and AO.
 
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include <cellray/mesh/generate.hpp>
+#include <cellray/mesh/neighbours.hpp>
 
 #include "support/render_fixtures.hpp"
 #include "support/sanitized.hpp"
@@ -61,7 +65,8 @@ void check_queries_agree(std::string const& name, Scene const& scene, int size) 
       o.secondary_traversal = tv;
       o.secondary_query = SecondaryQuery::nearest;
       Image const nearest = render_iso(scene, cam, p, o);
-      for (SecondaryQuery q : {SecondaryQuery::occlusion, SecondaryQuery::sorted, SecondaryQuery::grouped}) {
+      for (SecondaryQuery q : {SecondaryQuery::occlusion, SecondaryQuery::sorted, SecondaryQuery::grouped,
+                               SecondaryQuery::march}) {
         o.secondary_query = q;
         INFO(name << ", " << what << ", " << secondary_query_name(q) << ", " << traversal_name(tv) << " on "
                   << isa_name(test::isa()));
@@ -75,13 +80,28 @@ constexpr int frame = test::full_or_sanitized(64, 32);
 
 }  // namespace
 
-TEST_CASE("shadow and AO queries: occlusion, sorted and grouped render the nearest-hit image bit for bit",
+TEST_CASE("shadow and AO queries: occlusion, sorted, grouped and march render the nearest-hit image bit for bit",
           "[render][isa]") {
   auto t = generate_tets(20000, 2);
   auto h = generate_hexes(4000, 2);
   auto const lt = test::load(t.mesh());
   auto const lh = test::load(h.mesh());
   check_queries_agree("tets", lt->scene(), frame);
+  // With face neighbours AO rays march (without, `march` is `grouped`);
+  // a mesh with holes makes AO rays leave it and finish in the tree.
+  TetNeighbours const nb = build_tet_neighbours(lt->mesh);
+  check_queries_agree("tets with face neighbours", Scene(lt->mesh, lt->bvh, nullptr, &nb), frame);
+  std::vector<uint32_t> holed;
+  for (size_t c = 0; c + 4 <= t.cells.size(); c += 4) {
+    glm::vec3 m(0.f);
+    for (int i = 0; i < 4; ++i) m += glm::vec3(t.xyz[3 * t.cells[c + i]], t.xyz[3 * t.cells[c + i] + 1], t.xyz[3 * t.cells[c + i] + 2]);
+    m *= 0.25f;
+    if (std::abs(m.x) > 0.15f && std::abs(m.y - 0.3f) > 0.1f) holed.insert(holed.end(), &t.cells[c], &t.cells[c] + 4);
+  }
+  auto const lholed = test::load(TetMesh{view(t.xyz), view(holed), view(t.field)});
+  TetNeighbours const nb_holed = build_tet_neighbours(lholed->mesh);
+  check_queries_agree("tets with holes and face neighbours", Scene(lholed->mesh, lholed->bvh, nullptr, &nb_holed),
+                      frame);
   check_queries_agree("hexes", lh->scene(), frame);
   Scene both = lt->scene();  // two overlapping parts: a ray occluded by the first skips the second
   both.hexes.push_back({lh->mesh, &lh->bvh, nullptr});
@@ -93,11 +113,12 @@ TEST_CASE("fast vs reference: shadows and ambient occlusion with the default sec
   auto h = generate_hexes(4000, 4);
   auto const lt = test::load(t.mesh());
   auto const lh = test::load(h.mesh());
+  TetNeighbours const nb = build_tet_neighbours(lt->mesh);
   for (int which = 0; which < 2; ++which) {
-    Scene const scene = which == 0 ? lt->scene() : lh->scene();
+    Scene const scene = which == 0 ? Scene(lt->mesh, lt->bvh, nullptr, &nb) : lh->scene();
     Camera const cam = test::camera_for(scene, 2 * frame, 2 * frame);
     RenderOptions const o = test::isa_options();
-    REQUIRE(o.secondary_query == SecondaryQuery::grouped);
+    REQUIRE(o.secondary_query == SecondaryQuery::march);
     for (auto const& [what, p] : lit_params()) {
       std::string const name = std::string(which == 0 ? "tets" : "hexes") + ", " + what;
       ImageDiff const d = compare_images(render_iso(scene, cam, p, o), render_iso_reference(scene, cam, p), 2.0);

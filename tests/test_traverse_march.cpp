@@ -21,6 +21,7 @@
 #include <cellray/cells/reference.hpp>
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/neighbours.hpp>
+#include <cellray/traverse/occlusion_query.hpp>
 
 #include "support/march_probe.hpp"
 #include "support/test_isa.hpp"
@@ -265,6 +266,84 @@ TEST_CASE("march: a value window skips transparent stretches through the tree, w
   CHECK(locates[1] >= locates[2]);
   CHECK(steps[0] < steps[1]);
   CHECK(steps[1] < steps[2]);
+}
+
+namespace {
+
+/// Short rays from random points inside random cells (as AO rays leave an
+/// isosurface hit inside its hit cell), with the cell they start in.
+void ao_like_rays(TetMesh const& mesh, int n, uint32_t seed, float radius, std::vector<Ray>& rays,
+                  std::vector<int32_t>& start) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u01(0.f, 1.f), u(-1.f, 1.f);
+  std::uniform_int_distribution<uint64_t> pick(0, mesh.cell_count() - 1);
+  for (int i = 0; i < n; ++i) {
+    uint64_t const c = pick(rng);
+    float w[4], sum = 0.f;
+    for (float& x : w) sum += (x = 0.05f + u01(rng));
+    glm::vec3 p(0.f);
+    for (int k = 0; k < 4; ++k) p += (w[k] / sum) * mesh.position(mesh.vertex(c, k));
+    glm::vec3 d(u(rng), u(rng), u(rng));
+    if (!(glm::length(d) > 0.1f)) d = glm::vec3(0.3f, 0.5f, 0.8f);
+    rays.push_back({p, 1e-5f, glm::normalize(d), radius});
+    start.push_back(int32_t(c));
+  }
+}
+
+}  // namespace
+
+TEST_CASE("march: occlusion of short rays from known cells answers as the tree does", "[traverse][isa]") {
+  // A convex mesh, and one with a hole the rays may cross (leaving the mesh:
+  // the march cannot finish those, the tree must).
+  auto const g = generate_tets(6 * 10 * 10 * 10, 11);
+  std::vector<uint32_t> const holed = cells_without(g, [](glm::vec3 c) { return std::abs(c.x) < 0.2f; });
+  for (bool hole : {false, true}) {
+    TetMesh const mesh = hole ? TetMesh{view(g.xyz), view(holed), view(g.field)} : g.mesh();
+    MinMaxBvh const bvh = build_minmax_bvh(mesh);
+    TetNeighbours const nb = build_tet_neighbours(mesh);
+    TreeView const tree(bvh);
+    std::vector<Ray> rays;
+    std::vector<int32_t> start;
+    ao_like_rays(mesh, 600, hole ? 13u : 12u, 0.4f, rays, start);
+    IsoQuery q;
+    q.isos.count = 2;
+    q.isos.values[0] = 0.3f, q.isos.values[1] = 0.55f;
+    int const n = int(rays.size());
+    std::vector<uint8_t> occ(static_cast<size_t>(n)), und(static_cast<size_t>(n));
+    std::vector<float> done(static_cast<size_t>(n));
+    dispatch<test::MarchOcclusionProbe>(test::isa(), mesh, bvh, nb, rays.data(), start.data(), n, q.isos, occ.data(),
+                                        und.data(), done.data());
+    std::vector<uint8_t> const tree_answer = occluded_rays(tree, mesh, rays, q, false, test::isa());
+    // The tree over [t_done, tmax] finishes what the march could not.
+    std::vector<Ray> rest;
+    for (int i = 0; i < n; ++i)
+      if (und[size_t(i)]) rest.push_back(rays[size_t(i)]), rest.back().tmin = done[size_t(i)];
+    std::vector<uint8_t> const rest_answer = occluded_rays(tree, mesh, rest, q, false, test::isa());
+    int differ = 0, undecided = 0, occluded = 0, j = 0, undecided_inside = 0;
+    for (int i = 0; i < n; ++i) {
+      bool answer = occ[size_t(i)] != 0;
+      if (und[size_t(i)]) {
+        CHECK(!answer);
+        answer = rest_answer[size_t(j++)] != 0;
+        ++undecided;
+        // A ray whose end lies well inside the cube (boundary vertices are
+        // jittered by up to 0.06) never left the convex mesh.
+        glm::vec3 const e = rays[size_t(i)].org + rays[size_t(i)].tmax * rays[size_t(i)].dir;
+        undecided_inside += std::max(std::abs(e.x), std::max(std::abs(e.y), std::abs(e.z))) < 0.9f;
+      }
+      differ += answer != (tree_answer[size_t(i)] != 0);
+      occluded += answer;
+    }
+    INFO((hole ? "with a hole" : "convex") << ": " << occluded << " occluded, " << undecided << " undecided of " << n
+                                          << ", " << undecided_inside << " of those ending inside the cube");
+    CHECK(differ == 0);
+    CHECK(occluded > n / 10);
+    CHECK(occluded < n - n / 10);
+    // Only rays that leave the mesh are left to the tree (a march that gave
+    // up on every ray would leave them all).
+    if (!hole) CHECK(undecided_inside == 0);
+    CHECK(undecided < n / 2);
+  }
 }
 
 }  // namespace test_traverse_march

@@ -1,7 +1,8 @@
 #pragma once
 // Test-only entry point: TetMarch (traverse/march.hpp) driven over host
 // rays, one packet of W rays at a time, per ISA (tests/isa_traverse_march.cpp
-// instantiates it), recording every visible segment a lane steps through.
+// instantiates it), recording every visible segment a lane steps through;
+// and the marched occlusion query of ambient-occlusion rays.
 
 #include <cellray/bvh/bvh.hpp>
 #include <cellray/dispatch/dispatch.hpp>
@@ -30,5 +31,15 @@ template <class Arch> struct MarchProbe {
                   Ray const* rays, int n, int how, int max_faint, MarchProbeOut* out);
 };
 CELLRAY_EXTERN_ENTRY(MarchProbe)
+
+/// march_occluded (traverse/march.hpp) on `rays[i]` starting in cell
+/// `start[i]`, packets of W: per ray occluded (1/0), undecided (1/0: the
+/// march could not finish) and how far it got without a crossing.
+template <class Arch> struct MarchOcclusionProbe {
+  static void run(TetMesh const& mesh, MinMaxBvh const& bvh, TetNeighbours const& nb, Ray const* rays,
+                  int32_t const* start, int n, IsoSet const& isos, uint8_t* occluded, uint8_t* undecided,
+                  float* t_done);
+};
+CELLRAY_EXTERN_ENTRY(MarchOcclusionProbe)
 
 }  // namespace cellray::test

@@ -159,12 +159,19 @@ enum class SecondaryQuery {
   /// As `sorted`, and the regrouped AO packets go 4 at a time through one
   /// traversal (nodes and cell corners read once for all of them).
   grouped,
+  /// As `grouped`, except AO rays of a scene of one tet part with face
+  /// neighbours (ScenePart<4>::neighbours): each marches from its hit cell
+  /// through the neighbours (traverse/march.hpp), the tree only for what a
+  /// march cannot finish (a ray leaving the mesh).
+  march,
 };
 
 inline constexpr char const* secondary_query_name(SecondaryQuery q) {
-  return q == SecondaryQuery::nearest ? "nearest" : q == SecondaryQuery::occlusion ? "occlusion"
-                                                                                 : q == SecondaryQuery::sorted ? "sorted"
-                                                                                                               : "grouped";
+  return q == SecondaryQuery::nearest     ? "nearest"
+         : q == SecondaryQuery::occlusion ? "occlusion"
+         : q == SecondaryQuery::sorted    ? "sorted"
+         : q == SecondaryQuery::grouped   ? "grouped"
+                                          : "march";
 }
 
 /// Where and how to run.
@@ -181,15 +188,16 @@ struct RenderOptions {
   /// "is the light blocked" as the nearest hit does (same cells, same
   /// kernel, same window); shadows with surfaces of different opacities
   /// keep the nearest hit's opacity (the reference renderer's meaning), so
-  /// they always use the nearest-hit query. Default `grouped`, measured on
-  /// component8 (iso 423, shadows from a light above the left shoulder + 4
-  /// AO rays per hit, 1 thread): the secondary rays' instructions 1.37x
-  /// fewer than `nearest` (callgrind, AVX2, 256x256; AO rays 1.44x, shadow
-  /// rays 1.05x), but they wait on memory: secondary CPU time 1.09x-1.25x
-  /// less than `nearest` (AVX-512, 512x512, `bench_targets --secondary`,
-  /// medians of per-round ratios in 4 runs on a loaded Xeon), 1.45x-1.48x
-  /// on an AMD EPYC (shadow rays then as one packet each, AO grouped).
-  SecondaryQuery secondary_query = SecondaryQuery::grouped;
+  /// they always use the nearest-hit query. Default `march` (which is
+  /// `grouped` unless the scene is one tet part with face neighbours),
+  /// measured on component8 (iso 423, shadows from a light above the left
+  /// shoulder + 4 AO rays per hit, 512x512, 1 thread, AVX-512, AMD EPYC,
+  /// `bench_targets --secondary`, secondary CPU time): `march` 1.61x less
+  /// than `nearest`, `grouped` 1.48x. `grouped` against `nearest`: the
+  /// secondary rays' instructions 1.37x fewer (callgrind, AVX2, 256x256; AO
+  /// rays 1.44x, shadow rays 1.05x), but they wait on memory (a loaded Xeon:
+  /// 1.09x-1.25x less time).
+  SecondaryQuery secondary_query = SecondaryQuery::march;
   int hybrid_threshold = 0;  ///< 0: a quarter of the packet width
   int tile_size = 32;        ///< pixels per tile side, scheduled on TBB
 };

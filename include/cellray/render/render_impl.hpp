@@ -196,6 +196,9 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
   bool const query_gradient = p.normals == GradientMethod::analytic;
   // Any-hit shadow rays need one opacity for every surface (see the shadow block).
   bool const secondary = p.shadows || p.ao_samples > 0;
+  // AO rays march from their hit cells where the scene allows (one tet part
+  // with face neighbours); elsewhere `march` is `grouped`.
+  bool const march_ao = o.secondary_query == SecondaryQuery::march && s.parts.size() == 1 && s.parts[0].neighbours;
   bool one_opacity = true;
   for (IsoSurface const& surf : p.surfaces) one_opacity = one_opacity && surf.opacity == p.surfaces[0].opacity;
   vfloat<A> const zero(0.f), one(1.f);
@@ -299,7 +302,46 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           glm::vec3 const d = rr * std::cos(phi) * tx + rr * std::sin(phi) * ty + std::sqrt(std::max(0.f, 1.f - u1)) * n;
           return Ray{pos[l] + eps * nrm[l], eps, d, ao_radius};
         };
-        bool const regroup = o.secondary_query == SecondaryQuery::sorted || o.secondary_query == SecondaryQuery::grouped;
+        bool const regroup = o.secondary_query == SecondaryQuery::sorted || o.secondary_query == SecondaryQuery::grouped ||
+                             (o.secondary_query == SecondaryQuery::march && !march_ao);
+        if (hit_bits && p.ao_samples > 0 && march_ao) {
+          // Each hit lane's AO rays march from its hit cell; what a march
+          // cannot finish (it left the mesh, or its origin lies just outside
+          // the hit cell) goes on from where it got to through the grouped
+          // query, a chunk of samples at a time.
+          constexpr int chunk = std::min(4, max_sorted_rays / W);
+          vmask<A> const lanes = simd::mask_from_bits<A>(hit_bits);
+          vint<A> const hit_cells = slot_cells<A>(s.parts[0].tree, h.item, lanes);  // h.item: item-list slots
+          PreparedPart const& part = s.parts[0];
+          Ray rest[W * chunk];
+          uint8_t owner[W * chunk];
+          uint64_t occ_rest[(W * chunk + 63) / 64];
+          for (int k0 = 0; k0 < p.ao_samples; k0 += chunk) {
+            int n = 0;
+            for (int k = k0; k < std::min(p.ao_samples, k0 + chunk); ++k) {
+              Ray ar[W];
+              for (int l = 0; l < W; ++l)
+                ar[l] = (hit_bits >> l) & 1u ? ao_ray(l, k) : Ray{cam.eye, 0.f, glm::vec3(0, 0, 1), -1.f};
+              RayPacket<A> const arp = load_rays<A>(ar, W);
+              vmask<A> undecided;
+              vfloat<A> t_done;
+              uint32_t const occ = simd::movemask(march_occluded<A>(part.tree, *part.tets, *part.neighbours, arp, lanes,
+                                                                    hit_cells, isos, p.roots, undecided, t_done)) &
+                                   hit_bits;
+              for (int l = 0; l < W; ++l)
+                if (occ >> l & 1u) occlusion[l] += 1.f / float(p.ao_samples);
+              auto const from = simd::to_array<A>(t_done);
+              for (uint32_t b = simd::movemask(undecided); b; b &= b - 1) {
+                int const l = __builtin_ctz(b);
+                rest[n] = ar[l], rest[n].tmin = from[size_t(l)], owner[n] = uint8_t(l), ++n;
+              }
+            }
+            if (n == 0) continue;
+            scene_occluded_sorted<A>(s, rest, n, isos, p.roots, o.secondary_traversal, threshold, true, occ_rest);
+            for (int i = 0; i < n; ++i)
+              if (occ_rest[i / 64] >> (i % 64) & 1u) occlusion[owner[i]] += 1.f / float(p.ao_samples);
+          }
+        }
         if (hit_bits && p.ao_samples > 0 && regroup) {
           // A chunk of samples of every hit lane, regrouped by direction.
           constexpr int chunk = std::min(4, max_sorted_rays / W);
@@ -319,7 +361,7 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
               if (occ[i / 64] >> (i % 64) & 1u) occlusion[owner[i]] += 1.f / float(p.ao_samples);
           }
         }
-        for (int k = 0; hit_bits && k < p.ao_samples && !regroup; ++k) {
+        for (int k = 0; hit_bits && k < p.ao_samples && !regroup && !march_ao; ++k) {
           Ray ar[W];
           for (int l = 0; l < W; ++l)
             ar[l] = (hit_bits >> l) & 1u ? ao_ray(l, k) : Ray{cam.eye, 0.f, glm::vec3(0, 0, 1), -1.f};

@@ -104,12 +104,26 @@ CELLRAY_FORCE_INLINE vmask<A> cell_box_hit(RayPacket<A> const& r, CellCorners<A,
 /// `param` (hexes): the hit's trilinear coordinates in hit lanes, see
 /// CellOps<A, 8>::iso.
 template <class A, int N>
+inline CellIsoHit<A> iso_in_clip(RayBatch<A> const& r, typename CellOps<A, N>::Clip const& k,
+                                 CellCorners<A, N> const& c, vfloat<A> const& t_lo, vfloat<A> const& t_hi,
+                                 float const* isos, int count, CellIsoOptions const& o, Vec3<A>* param = nullptr);
+
+template <class A, int N>
 inline CellIsoHit<A> iso_in_window(RayBatch<A> const& r, CellCorners<A, N> const& c, vmask<A> const& lanes,
                                    vfloat<A> const& t_lo, vfloat<A> const& t_hi, float const* isos, int count,
                                    CellIsoOptions const& o, Vec3<A>* param = nullptr) {
+  return iso_in_clip<A, N>(r, CellOps<A, N>::clip_window(r, c, lanes, t_lo, t_hi), c, t_lo, t_hi, isos, count, o,
+                           param);
+}
+
+/// iso_in_window on the cell's clip `k`, already computed for the lanes
+/// (with any window that holds [t_lo, t_hi]'s part of the cell).
+template <class A, int N>
+inline CellIsoHit<A> iso_in_clip(RayBatch<A> const& r, typename CellOps<A, N>::Clip const& k,
+                                 CellCorners<A, N> const& c, vfloat<A> const& t_lo, vfloat<A> const& t_hi,
+                                 float const* isos, int count, CellIsoOptions const& o, Vec3<A>* param) {
   using Ops = CellOps<A, N>;
   constexpr float inf = std::numeric_limits<float>::infinity();
-  typename Ops::Clip const k = Ops::clip_window(r, c, lanes, t_lo, t_hi);
   CellIsoHit<A> best{vfloat<A>(inf), vint<A>(-1), simd::no_lanes<A>()};
   if (simd::none(k.hit)) return best;
   if (simd::all(!k.hit || (k.t_in >= t_lo && k.t_out <= t_hi))) return Ops::iso(r, k, c, isos, count, o, param);

@@ -109,6 +109,7 @@ template <class A> struct TetMarch {
   /// the ray has not integrated yet; `visible` where that piece may have
   /// opacity (no NaN corner, values meeting a window, e > a).
   struct Step {
+    CellCorners<A, 4> c;
     CellClip<A> k;
     vfloat<A> a, e;
     vmask<A> visible;
@@ -145,7 +146,8 @@ template <class A> struct TetMarch {
   /// `max_faint` invisible cells in a row). t advances to the exit.
   Step step(vmask<A> const& lanes, bool want_gradient) {
     Step s;
-    CellCorners<A, 4> const c = gather_corners<A, 4>(mesh, cell, lanes);
+    s.c = gather_corners<A, 4>(mesh, cell, lanes);
+    CellCorners<A, 4> const& c = s.c;
     vint<A> exit_face(0);
     s.k = clip_tet_window(ray_batch(r), c, lanes, t, t_end, &exit_face);
     vmask<A> const progress = s.k.hit && s.k.t_out > t;
@@ -163,6 +165,41 @@ template <class A> struct TetMarch {
     return s;
   }
 };
+
+/// Occlusion (any hit, traverse/occlusion.hpp) of short rays that start in
+/// known cells (ambient-occlusion rays leave an isosurface hit in its hit
+/// cell): lanes of `active` march from `start` over [r.tmin, r.tmax], each
+/// cell tested with the occlusion query's kernel (iso_in_clip) on the
+/// march's clip. Returns the occluded lanes; `undecided` gets the lanes the
+/// march could not finish (left the mesh through a boundary face before
+/// r.tmax, or made no progress, e.g. an origin just outside its start
+/// cell) and `t_done` how far each lane got without a crossing: the caller
+/// asks the tree for [t_done, r.tmax] of those.
+template <class A>
+inline vmask<A> march_occluded(TreeView const& tree, TetMesh const& mesh, TetNeighbours const& nb,
+                               RayPacket<A> const& r, vmask<A> const& active, vint<A> const& start,
+                               IsoSet const& isos, CellIsoOptions const& method, vmask<A>& undecided,
+                               vfloat<A>& t_done) {
+  ValueWindows const all;
+  TetMarch<A> m(tree, mesh, nb, r, all, r.tmin, r.tmax);
+  m.max_faint = std::numeric_limits<int32_t>::max() - 1;  // no value filter: every cell is tested
+  m.cell = simd::select(simd::to_int_mask(active), start, vint<A>(-1));
+  vmask<A> occluded = simd::no_lanes<A>(), live = active;
+  RayBatch<A> const ray = ray_batch(r);
+  while (true) {
+    vmask<A> const has = live && m.has_cell();
+    if (simd::none(has)) break;
+    typename TetMarch<A>::Step const st = m.step(has, false);
+    vmask<A> const nan = has_nan_value(st.c);
+    CellIsoHit<A> const h = iso_in_clip<A, 4>(ray, st.k, st.c, r.tmin, r.tmax, isos.values, isos.count, method);
+    vmask<A> const found = h.hit && has && !nan;
+    occluded = occluded || found;
+    live = live && !found && m.t < r.tmax;
+  }
+  undecided = live;
+  t_done = m.t;
+  return occluded;
+}
 
 }  // namespace CELLRAY_ISA_NS
 }  // namespace cellray
