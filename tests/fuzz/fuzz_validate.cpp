@@ -16,6 +16,7 @@
 #include <vector>
 
 #include <cellray/bvh/build.hpp>
+#include <cellray/mesh/neighbours.hpp>
 #include <cellray/mesh/validate.hpp>
 #include <cellray/render/render.hpp>
 
@@ -158,6 +159,22 @@ void run(Bytes& in, uint8_t flags, uint8_t tuning, uint64_t nv, uint64_t nc, flo
   dp.tf = cellray::transfer_function_preset("viridis", 0.f, 1.f);
   dp.mode = (flags & 0x80) ? cellray::DvrMode::segments : cellray::DvrMode::samples;
   check_image(cellray::render_dvr(scene, cam, dp, ro), w, h);
+  if constexpr (N == 4) {
+    // Face neighbours of whatever the input made (duplicated, overlapping,
+    // degenerate cells): DVR segments and AO rays march through them.
+    cellray::TetNeighbours const nb = cellray::build_tet_neighbours(mesh);
+    require(nb.cell_count() == nc, "face neighbours cell count");
+    for (uint64_t c = 0; c < nc; ++c)
+      for (int f = 0; f < 4; ++f) {
+        int32_t const o = nb.across(c, f);
+        require(o >= -1 && o < int32_t(nc) && o != int32_t(c), "face neighbour out of range or the cell itself");
+      }
+    cellray::Scene const marched(mesh, bvh, nullptr, &nb);
+    ip.ao_samples = 2;
+    check_image(cellray::render_iso(marched, cam, ip, ro), w, h);
+    dp.mode = cellray::DvrMode::segments;
+    check_image(cellray::render_dvr(marched, cam, dp, ro), w, h);
+  }
 }
 
 }  // namespace
