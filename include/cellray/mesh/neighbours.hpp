@@ -1,8 +1,8 @@
 #pragma once
 // Face neighbours of a tetrahedral mesh: for each cell and face, the cell on
-// the other side. Cell-segment DVR marches from cell to cell through them
-// instead of clipping every cell of every BVH leaf a packet reaches
-// (render_impl.hpp, integrate_march). Topology only: a new time step
+// the other side. Cell-segment DVR and ambient-occlusion rays march from cell
+// to cell through them instead of clipping every cell of every BVH leaf a
+// packet reaches (traverse/march.hpp). Topology only: a new time step
 // (CellMesh::with_values) keeps them; new connectivity needs a new build.
 //
 // Face f of a cell is the face opposite its f-th corner in ascending vertex

@@ -20,7 +20,7 @@ struct PreparedPart {
   TreeView tree;
   TetMesh const* tets = nullptr;   ///< exactly one of tets / hexes is set
   HexMesh const* hexes = nullptr;
-  TetNeighbours const* neighbours = nullptr;  ///< tets only: set when DVR segments may march (can_march)
+  TetNeighbours const* neighbours = nullptr;  ///< tets only: set when DVR segments and AO rays may march
 };
 
 /// Transfer function sampled into a table with the opacity corrected for the

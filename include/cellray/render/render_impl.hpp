@@ -15,9 +15,9 @@
 
 #include "../traverse/cell_ops.hpp"
 #include "../traverse/first_hit.hpp"
+#include "../traverse/march.hpp"
 #include "../traverse/queries_impl.hpp"
 #include "../traverse/sample.hpp"
-#include "../traverse/march.hpp"
 #include "../traverse/segments.hpp"
 #include "occlusion_impl.hpp"
 #include "render.hpp"
@@ -310,9 +310,9 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           // the hit cell) goes on from where it got to through the grouped
           // query, a chunk of samples at a time.
           constexpr int chunk = std::min(4, max_sorted_rays / W);
-          vmask<A> const lanes = simd::mask_from_bits<A>(hit_bits);
-          vint<A> const hit_cells = slot_cells<A>(s.parts[0].tree, h.item, lanes);  // h.item: item-list slots
           PreparedPart const& part = s.parts[0];
+          vmask<A> const lanes = simd::mask_from_bits<A>(hit_bits);
+          vint<A> const hit_cells = slot_cells<A>(part.tree, h.item, lanes);  // h.item: item-list slots
           Ray rest[W * chunk];
           uint8_t owner[W * chunk];
           uint64_t occ_rest[(W * chunk + 63) / 64];
@@ -689,7 +689,7 @@ void integrate_march(PreparedScene const& s, PreparedPart const& part, RayPacket
                      int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca) {
   PreparedTf const& ptf = *s.tf;
   bool const shade = p.shading.enabled;
-  vfloat<A> const zero(0.f), one(1.f), half(0.5f), term(p.termination), step(s.step), inv_step(1.f / s.step);
+  vfloat<A> const zero(0.f), one(1.f), half(0.5f), term(p.termination), inv_step(1.f / s.step);
   vfloat<A> const lo(ptf.lo), scale(ptf.scale), last(float(ptf.r.size() - 1) - 1e-3f);
   TetMarch<A> m(part.tree, *part.tets, *part.neighbours, r, s.windows, t_enter, t_exit);
   vmask<A> live = inside;

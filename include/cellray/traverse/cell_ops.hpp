@@ -95,33 +95,21 @@ CELLRAY_FORCE_INLINE vmask<A> cell_box_hit(RayPacket<A> const& r, CellCorners<A,
 }
 
 /// Nearest crossing of any isovalue with t in [t_lo, t_hi] (per lane) in one
-/// cell per lane. When the cell's interval pokes out of the window (a ray
-/// continuing behind a transparent surface, a shadow or AO ray leaving a
-/// surface, or the current nearest hit), a crossing before t_lo must not hide
-/// a later one: the hex exact method searches from t_lo (a hex can hold
-/// several crossings of one isovalue), the others try the isovalues one by
-/// one (a tet holds one crossing per isovalue).
+/// cell per lane, on the cell's clip `k` (computed for the lanes with any
+/// window that holds the cell's part of [t_lo, t_hi]: iso_in_window clips
+/// with that window; a march has clipped the cell already). When the cell's
+/// interval pokes out of the window (a ray continuing behind a transparent
+/// surface, a shadow or AO ray leaving a surface, or the current nearest
+/// hit), a crossing before t_lo must not hide a later one: the hex exact
+/// method searches from t_lo (a hex can hold several crossings of one
+/// isovalue), the others try the isovalues one by one (a tet holds one
+/// crossing per isovalue).
 /// `param` (hexes): the hit's trilinear coordinates in hit lanes, see
 /// CellOps<A, 8>::iso.
 template <class A, int N>
 inline CellIsoHit<A> iso_in_clip(RayBatch<A> const& r, typename CellOps<A, N>::Clip const& k,
                                  CellCorners<A, N> const& c, vfloat<A> const& t_lo, vfloat<A> const& t_hi,
-                                 float const* isos, int count, CellIsoOptions const& o, Vec3<A>* param = nullptr);
-
-template <class A, int N>
-inline CellIsoHit<A> iso_in_window(RayBatch<A> const& r, CellCorners<A, N> const& c, vmask<A> const& lanes,
-                                   vfloat<A> const& t_lo, vfloat<A> const& t_hi, float const* isos, int count,
-                                   CellIsoOptions const& o, Vec3<A>* param = nullptr) {
-  return iso_in_clip<A, N>(r, CellOps<A, N>::clip_window(r, c, lanes, t_lo, t_hi), c, t_lo, t_hi, isos, count, o,
-                           param);
-}
-
-/// iso_in_window on the cell's clip `k`, already computed for the lanes
-/// (with any window that holds [t_lo, t_hi]'s part of the cell).
-template <class A, int N>
-inline CellIsoHit<A> iso_in_clip(RayBatch<A> const& r, typename CellOps<A, N>::Clip const& k,
-                                 CellCorners<A, N> const& c, vfloat<A> const& t_lo, vfloat<A> const& t_hi,
-                                 float const* isos, int count, CellIsoOptions const& o, Vec3<A>* param) {
+                                 float const* isos, int count, CellIsoOptions const& o, Vec3<A>* param = nullptr) {
   using Ops = CellOps<A, N>;
   constexpr float inf = std::numeric_limits<float>::infinity();
   CellIsoHit<A> best{vfloat<A>(inf), vint<A>(-1), simd::no_lanes<A>()};
@@ -148,6 +136,15 @@ inline CellIsoHit<A> iso_in_clip(RayBatch<A> const& r, typename CellOps<A, N>::C
     best.hit = best.hit || take;
   }
   return best;
+}
+
+/// iso_in_clip after clipping the cell to [t_lo, t_hi] for `lanes`.
+template <class A, int N>
+inline CellIsoHit<A> iso_in_window(RayBatch<A> const& r, CellCorners<A, N> const& c, vmask<A> const& lanes,
+                                   vfloat<A> const& t_lo, vfloat<A> const& t_hi, float const* isos, int count,
+                                   CellIsoOptions const& o, Vec3<A>* param = nullptr) {
+  return iso_in_clip<A, N>(r, CellOps<A, N>::clip_window(r, c, lanes, t_lo, t_hi), c, t_lo, t_hi, isos, count, o,
+                           param);
 }
 
 }  // namespace CELLRAY_ISA_NS

@@ -1,6 +1,8 @@
 #pragma once
 // Marching rays from tet to tet through face neighbours (mesh/neighbours.hpp),
-// one ray per lane, for cell-segment DVR. Not in the paper. ISA units only.
+// one ray per lane: cell-segment DVR (TetMarch) and the occlusion of short
+// rays that start in known cells (march_occluded, ambient occlusion). Not in
+// the paper. ISA units only.
 //
 // A packet traversal clips every cell of every leaf the packet reaches; on a
 // fine tet mesh most lanes miss most of those cells (component8: 18% of the
