@@ -10,6 +10,7 @@
 // the clip's exit face index picks the entry across it directly.
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -42,72 +43,66 @@ class TetNeighbours {
 
 namespace detail {
 
-/// A cell's vertex ids in ascending order.
-inline void sorted_tet_vertices(TetMesh const& mesh, uint64_t cell, uint64_t (&v)[4]) {
-  for (int i = 0; i < 4; ++i) v[i] = mesh.vertex(cell, i);
-  std::sort(v, v + 4);
-}
-
-}  // namespace detail
-
-/// Matches every face of `mesh` with the face of another cell over the same
-/// three vertices. Faces are bucketed by their smallest vertex (a counting
-/// sort of 8 bytes per face), then matched within each bucket on the other
-/// two vertices, buckets in parallel on TBB. Transient memory: 32 bytes per
-/// cell plus 8 per vertex.
-/// @throws InvalidArgument when the mesh has 2^31 cells or more (cell ids are
-///         32-bit, as in traversal) or InvalidMesh when a vertex id is out of
-///         range.
-inline TetNeighbours build_tet_neighbours(TetMesh const& mesh) {
+/// build_tet_neighbours with vertex ids stored as `Id` (32-bit when they fit).
+template <class Id> void match_tet_faces(TetMesh const& mesh, std::vector<int32_t>& across) {
   uint64_t const n = mesh.cell_count(), nv = mesh.vertex_count();
-  if (n >= (uint64_t(1) << 31))
-    throw InvalidArgument("face neighbours support up to 2^31 - 1 cells, the mesh has " + std::to_string(n));
-  TetNeighbours out;
-  out.across_.assign(4 * n, -1);
-  if (n == 0) return out;
-  // Faces by smallest vertex: offsets per vertex, then face slots (4 cell + f).
-  std::vector<uint64_t> start(nv + 1, 0);
+  // Every cell's ids in ascending order, once (TBB): the face keys below
+  // read them instead of sorting a cell's ids for each of its faces.
+  std::vector<Id> ids(4 * n);
+  std::atomic<uint64_t> first_bad{n};  // the first cell with a vertex id out of range
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, 8192), [&](tbb::blocked_range<uint64_t> const& range) {
+    for (uint64_t c = range.begin(); c < range.end(); ++c) {
+      uint64_t v[4];
+      for (int i = 0; i < 4; ++i) v[i] = mesh.vertex(c, i);
+      std::sort(v, v + 4);
+      if (v[3] >= nv) {
+        uint64_t seen = first_bad.load();
+        while (c < seen && !first_bad.compare_exchange_weak(seen, c)) {
+        }
+        return;
+      }
+      for (int i = 0; i < 4; ++i) ids[4 * c + uint64_t(i)] = Id(v[i]);
+    }
+  });
+  if (uint64_t const c = first_bad.load(); c < n) {
+    uint64_t bad = 0;
+    for (int i = 0; i < 4; ++i) bad = std::max(bad, mesh.vertex(c, i));
+    throw InvalidMesh("cell " + std::to_string(c) + " refers to vertex " + std::to_string(bad) + " of " +
+                      std::to_string(nv));
+  }
   // A face is keyed by its smallest vertex: v[0] for faces 1..3, v[1] for
   // face 0. A cell with a repeated id (degenerate) gets no neighbours.
-  auto face_ok = [](uint64_t const (&v)[4], int f, uint64_t& a) {
-    a = f == 0 ? v[1] : v[0];
-    return v[0] != v[1] && v[1] != v[2] && v[2] != v[3];
+  auto degenerate = [&](uint64_t c) {
+    Id const* v = &ids[4 * c];
+    return v[0] == v[1] || v[1] == v[2] || v[2] == v[3];
   };
-  for (uint64_t c = 0; c < n; ++c) {
-    uint64_t v[4];
-    detail::sorted_tet_vertices(mesh, c, v);
-    if (v[3] >= nv)
-      throw InvalidMesh("cell " + std::to_string(c) + " refers to vertex " + std::to_string(v[3]) + " of " +
-                        std::to_string(nv));
-    for (int f = 0; f < 4; ++f)
-      if (uint64_t a; face_ok(v, f, a)) ++start[a + 1];
-  }
+  auto key_vertex = [&](uint64_t c, int f) { return uint64_t(ids[4 * c + (f == 0 ? 1 : 0)]); };
+  std::vector<uint64_t> start(nv + 1, 0);
+  for (uint64_t c = 0; c < n; ++c)
+    if (!degenerate(c))
+      for (int f = 0; f < 4; ++f) ++start[key_vertex(c, f) + 1];
   for (uint64_t i = 0; i < nv; ++i) start[i + 1] += start[i];
-  std::vector<uint64_t> slot(start[nv]);
+  std::vector<uint64_t> slot(start[nv]);  // faces by key vertex: 4 cell + f
   {
     std::vector<uint64_t> fill(start.begin(), start.end() - 1);
-    for (uint64_t c = 0; c < n; ++c) {
-      uint64_t v[4];
-      detail::sorted_tet_vertices(mesh, c, v);
-      for (int f = 0; f < 4; ++f)
-        if (uint64_t a; face_ok(v, f, a)) slot[fill[a]++] = 4 * c + uint64_t(f);
-    }
+    for (uint64_t c = 0; c < n; ++c)
+      if (!degenerate(c))
+        for (int f = 0; f < 4; ++f) slot[fill[key_vertex(c, f)]++] = 4 * c + uint64_t(f);
   }
   // Within a bucket: sort by the face's other two vertices; runs of exactly
   // two equal keys are neighbours.
   struct Key {
-    uint64_t b, c, slot;
+    Id b, c;
+    uint64_t slot;
   };
   tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nv, 4096), [&](tbb::blocked_range<uint64_t> const& range) {
     std::vector<Key> keys;
     for (uint64_t a = range.begin(); a < range.end(); ++a) {
       keys.clear();
       for (uint64_t i = start[a]; i < start[a + 1]; ++i) {
-        uint64_t v[4];
-        uint64_t const cell = slot[i] / 4;
-        int const f = int(slot[i] % 4);
-        detail::sorted_tet_vertices(mesh, cell, v);
-        uint64_t w[3];
+        Id const* v = &ids[slot[i] & ~uint64_t(3)];
+        int const f = int(slot[i] & 3u);
+        Id w[3];
         for (int k = 0, j = 0; k < 4; ++k)
           if (k != f) w[j++] = v[k];
         keys.push_back({w[1], w[2], slot[i]});
@@ -119,13 +114,34 @@ inline TetNeighbours build_tet_neighbours(TetMesh const& mesh) {
         size_t j = i + 1;
         while (j < keys.size() && keys[j].b == keys[i].b && keys[j].c == keys[i].c) ++j;
         if (j - i == 2) {
-          out.across_[keys[i].slot] = int32_t(keys[i + 1].slot / 4);
-          out.across_[keys[i + 1].slot] = int32_t(keys[i].slot / 4);
+          across[keys[i].slot] = int32_t(keys[i + 1].slot / 4);
+          across[keys[i + 1].slot] = int32_t(keys[i].slot / 4);
         }
         i = j;
       }
     }
   });
+}
+
+}  // namespace detail
+
+/// Matches every face of `mesh` with the face of another cell over the same
+/// three vertices: each cell's ids sorted once (TBB), faces bucketed by their
+/// smallest vertex (a counting sort), then matched within each bucket on the
+/// other two vertices, buckets in parallel on TBB. Transient memory: 48 bytes
+/// per cell (64 beyond 2^32 vertices) plus 8 per vertex.
+/// @throws InvalidArgument when the mesh has 2^31 cells or more (cell ids are
+///         32-bit, as in traversal) or InvalidMesh when a vertex id is out of
+///         range.
+inline TetNeighbours build_tet_neighbours(TetMesh const& mesh) {
+  uint64_t const n = mesh.cell_count();
+  if (n >= (uint64_t(1) << 31))
+    throw InvalidArgument("face neighbours support up to 2^31 - 1 cells, the mesh has " + std::to_string(n));
+  TetNeighbours out;
+  out.across_.assign(4 * n, -1);
+  if (n == 0) return out;
+  if (mesh.vertex_count() <= (uint64_t(1) << 32)) detail::match_tet_faces<uint32_t>(mesh, out.across_);
+  else detail::match_tet_faces<uint64_t>(mesh, out.across_);
   return out;
 }
 
