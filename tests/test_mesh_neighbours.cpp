@@ -93,6 +93,16 @@ TEST_CASE("neighbours: a conforming jittered tet mesh", "[mesh][neighbours]") {
       CHECK(back == 1);
     }
   CHECK(boundary == uint64_t(6 * 2 * g.lattice * g.lattice));
+  // Topology only: another array (a time step) keeps them; another mesh not.
+  CHECK(nb.fits(m));
+  CHECK(nb.fits(m.with_array("field_t1")));
+  auto const other = generate_tets(6 * 5 * 5 * 5, 2);
+  CHECK_FALSE(nb.fits(other.mesh()));
+  std::vector<uint32_t> swapped = g.cells;
+  size_t j = 4;  // a vertex id of another cell that cell 0 does not have
+  while (std::find(swapped.begin(), swapped.begin() + 4, swapped[j]) != swapped.begin() + 4) ++j;
+  std::swap(swapped[0], swapped[j]);  // same counts, other vertex ids in two cells
+  CHECK_FALSE(nb.fits(TetMesh{view(g.xyz), view(swapped), view(g.field)}));
 }
 
 TEST_CASE("neighbours: any corner order, 64-bit indices, duplicated and degenerate cells", "[mesh][neighbours]") {

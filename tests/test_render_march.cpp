@@ -116,6 +116,14 @@ TEST_CASE("DVR march: neighbours of another mesh are refused, several parts use 
   Scene const wrong(a, bvh_a, nullptr, &nb_b);
   Camera const cam = camera_for(wrong, 8, 8);
   CHECK_THROWS_WITH(render_dvr(wrong, cam, p), Catch::Contains("face neighbours") && Catch::Contains("part 0"));
+  // Same cell and vertex counts, other connectivity (cells in another order).
+  std::vector<uint32_t> shuffled(g.cells.size());
+  size_t const nc = g.cells.size() / 4;
+  for (size_t c = 0; c < nc; ++c)
+    std::copy_n(g.cells.begin() + long(4 * ((c * 7 + 3) % nc)), 4, shuffled.begin() + long(4 * c));
+  TetMesh const a2{view(g.xyz), view(shuffled), view(g.field)};
+  TetNeighbours const nb_a2 = build_tet_neighbours(a2);
+  CHECK_THROWS_WITH(render_dvr(Scene(a, bvh_a, nullptr, &nb_a2), cam, p), Catch::Contains("another mesh"));
   Scene two(a, bvh_a, nullptr, nullptr);
   two.tets.push_back({b, &bvh_b, nullptr, &nb_b});
   Scene two_tree(a, bvh_a);

@@ -36,9 +36,28 @@ class TetNeighbours {
   int32_t const* data() const noexcept { return across_.data(); }
   uint64_t memory_bytes() const noexcept { return across_.size() * sizeof(int32_t); }
 
+  /// Whether these were built over `mesh`'s connectivity, as far as a cheap
+  /// check tells: the same cell and vertex counts and the same vertex ids
+  /// in 64 cells spread over the mesh. Neighbours of another mesh would send
+  /// a march to cells its ray does not enter next (wrong pixels, not a
+  /// crash), so the renderer refuses them.
+  bool fits(TetMesh const& mesh) const noexcept {
+    return mesh.cell_count() == cell_count() && mesh.vertex_count() == vertex_count_ && fingerprint(mesh) == fingerprint_;
+  }
+
  private:
   friend TetNeighbours build_tet_neighbours(TetMesh const& mesh);
+  static uint64_t fingerprint(TetMesh const& mesh) noexcept {
+    uint64_t const n = mesh.cell_count();
+    uint64_t h = 0x9e3779b97f4a7c15ull;
+    for (uint64_t k = 0; k < 64 && n > 0; ++k) {
+      uint64_t const c = k * (n - 1) / 63;
+      for (int i = 0; i < 4; ++i) h = (h ^ mesh.vertex(c, i)) * 0x100000001b3ull;
+    }
+    return h;
+  }
   std::vector<int32_t> across_;
+  uint64_t vertex_count_ = 0, fingerprint_ = 0;
 };
 
 namespace detail {
@@ -139,6 +158,8 @@ inline TetNeighbours build_tet_neighbours(TetMesh const& mesh) {
     throw InvalidArgument("face neighbours support up to 2^31 - 1 cells, the mesh has " + std::to_string(n));
   TetNeighbours out;
   out.across_.assign(4 * n, -1);
+  out.vertex_count_ = mesh.vertex_count();
+  out.fingerprint_ = TetNeighbours::fingerprint(mesh);
   if (n == 0) return out;
   if (mesh.vertex_count() <= (uint64_t(1) << 32)) detail::match_tet_faces<uint32_t>(mesh, out.across_);
   else detail::match_tet_faces<uint64_t>(mesh, out.across_);

@@ -45,9 +45,10 @@ template <int N> void add_part(ScenePart<N> const& part, CellMesh<N> const* mesh
   if constexpr (N == 4) {
     pp.tets = mesh;
     if (part.neighbours) {
-      if (part.neighbours->cell_count() != part.mesh.cell_count())
-        throw InvalidArgument(what + ": face neighbours built over " + std::to_string(part.neighbours->cell_count()) +
-                              " cells, mesh has " + std::to_string(part.mesh.cell_count()));
+      if (!part.neighbours->fits(part.mesh))
+        throw InvalidArgument(what + ": its face neighbours were built over another mesh (" +
+                              std::to_string(part.neighbours->cell_count()) + " cells; this one has " +
+                              std::to_string(part.mesh.cell_count()) + ", or other vertex ids)");
       constexpr uint64_t lim = uint64_t(std::numeric_limits<int32_t>::max());
       // Beyond 32-bit gather offsets the march is not available: the tree alone.
       if (part.mesh.cell_count() * 4 < lim && part.mesh.vertex_count() * 3 < lim) pp.neighbours = part.neighbours;
