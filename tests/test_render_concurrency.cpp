@@ -33,7 +33,8 @@ using namespace cellray;
 namespace {
 
 /// One shared scene: tets and hexes, each with the BVH's own ranges (time
-/// step 0) and a refit for "field_t1" (time step 1). Built once.
+/// step 0) and a refit for "field_t1" (time step 1; the tets also with their
+/// face neighbours there: DVR segments and AO rays march). Built once.
 struct SharedScene {
   GeneratedMesh<4> tets = generate_tets(12000, 7);
   GeneratedMesh<8> hexes = generate_hexes(2000, 7);
@@ -41,10 +42,11 @@ struct SharedScene {
   HexMesh hm0 = hexes.mesh(), hm1 = hm0.with_array("field_t1");
   MinMaxBvh tbvh = build_minmax_bvh(tm0), hbvh = build_minmax_bvh(hm0);
   ValueRanges t1 = refit_ranges(tbvh, tm1), h1 = refit_ranges(hbvh, hm1);
+  TetNeighbours tnb = build_tet_neighbours(tm0);
 
   Scene scene(bool hex, int step) const {
     if (hex) return step == 0 ? Scene(hm0, hbvh) : Scene(hm1, hbvh, &h1);
-    return step == 0 ? Scene(tm0, tbvh) : Scene(tm1, tbvh, &t1);
+    return step == 0 ? Scene(tm0, tbvh) : Scene(tm1, tbvh, &t1, &tnb);
   }
 };
 
@@ -104,6 +106,7 @@ Image render(Job const& j) {
   IsoParams p;
   p.surfaces = {{j.iso, {0.9f, 0.5f, 0.2f}, 0.5f}, {j.iso + 0.2f, {0.2f, 0.6f, 0.9f}, 1.f}};
   p.shadows = j.view % 2 == 1;
+  p.ao_samples = j.view % 2 == 1 ? 2 : 0;
   return render_iso(scene, cam, p, o);
 }
 
