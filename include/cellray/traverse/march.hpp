@@ -106,6 +106,12 @@ template <class A> struct TetMarch {
   /// cannot progress (a defensive end; the clip of the located cell
   /// progresses by construction, see FirstCellQuery).
   vfloat<A> located_at = vfloat<A>(std::numeric_limits<float>::quiet_NaN());
+  /// The corners of every lane's last cell (valid after a step, until the
+  /// next locate): a lane's next cell shares three of them.
+  CellCorners<A, 4> last;
+  bool last_valid = false;
+  /// next_corners applies: 32-bit indices whose ids are the corners' keys.
+  bool const reuse_ok = mesh.has_32bit_indices() && mesh.vertex_count() <= (uint64_t(1) << 31);
 
   /// What a step found per lane: the cell's clip and the piece [a, e] of it
   /// the ray has not integrated yet; `visible` where that piece may have
@@ -139,6 +145,7 @@ template <class A> struct TetMarch {
     cell = simd::select(simd::to_int_mask(found), q.cell, cell);
     faint = simd::select(simd::to_int_mask(found), vint<A>(0), faint);
     located_at = simd::select(ask, t, located_at);
+    last_valid = false;
     return need && !found;
   }
 
@@ -148,7 +155,7 @@ template <class A> struct TetMarch {
   /// `max_faint` invisible cells in a row). t advances to the exit.
   Step step(vmask<A> const& lanes, bool want_gradient) {
     Step s;
-    s.c = gather_corners<A, 4>(mesh, cell, lanes);
+    s.c = last_valid ? next_corners(lanes) : gather_corners<A, 4>(mesh, cell, lanes);
     CellCorners<A, 4> const& c = s.c;
     vint<A> exit_face(0);
     s.k = clip_tet_window(ray_batch(r), c, lanes, t, t_end, &exit_face);
@@ -164,7 +171,55 @@ template <class A> struct TetMarch {
     t = simd::select(progress, s.e, t);
     vmaski<A> const go_on = pi && faint <= vint<A>(max_faint);
     cell = simd::select(simd::to_int_mask(lanes), simd::select(go_on, next, vint<A>(-1)), cell);
+    last = c, last_valid = reuse_ok;
     return s;
+  }
+
+  /// gather_corners for lanes whose cell is the neighbour of their last one:
+  /// the new cell's ids (4 gathers, sorted as gather_corners sorts them),
+  /// the three corners it shares with the last cell taken from there, and
+  /// only the fourth vertex's position and value gathered (4 gathers instead
+  /// of 16). The same corners, bit for bit.
+  CellCorners<A, 4> next_corners(vmask<A> const& lanes) const {
+    CellCorners<A, 4> c;
+    vint<A> const cl = simd::select(simd::to_int_mask(lanes), cell, vint<A>(0));
+    auto const* idx = reinterpret_cast<int32_t const*>(mesh.indices32());
+    vint<A> vs[4];
+    for (int i = 0; i < 4; ++i) vs[i] = simd::gather(idx, cl * vint<A>(4) + vint<A>(i));
+    auto cmpx = [&vs](int i, int j) {
+      vmaski<A> const m = vs[i] > vs[j];
+      vint<A> const lo = simd::select(m, vs[j], vs[i]);
+      vs[j] = simd::select(m, vs[i], vs[j]);
+      vs[i] = lo;
+    };
+    cmpx(0, 1), cmpx(2, 3), cmpx(0, 2), cmpx(1, 3), cmpx(1, 2);
+    vint<A> fresh_id = vs[0];
+    vmaski<A> fresh[4];
+    for (int i = 0; i < 4; ++i) {
+      c.id[i] = vs[i];
+      c.x[i] = c.y[i] = c.z[i] = c.s[i] = vfloat<A>(0.f);
+      vmaski<A> found = vs[i] != vs[i];  // none
+      for (int j = 0; j < 4; ++j) {
+        vmaski<A> const m = vs[i] == last.id[j];
+        vmask<A> const mf = simd::to_float_mask(m);
+        c.x[i] = simd::select(mf, last.x[j], c.x[i]), c.y[i] = simd::select(mf, last.y[j], c.y[i]);
+        c.z[i] = simd::select(mf, last.z[j], c.z[i]), c.s[i] = simd::select(mf, last.s[j], c.s[i]);
+        found = found || m;
+      }
+      fresh[i] = !found;
+      fresh_id = simd::select(fresh[i], vs[i], fresh_id);
+    }
+    float const* xyz = mesh.positions();
+    float const* val = mesh.values();
+    vint<A> const v3 = fresh_id * vint<A>(3);
+    vfloat<A> const fx = simd::gather(xyz, v3), fy = simd::gather(xyz + 1, v3), fz = simd::gather(xyz + 2, v3);
+    vfloat<A> const fs = val ? simd::gather(val, fresh_id) : vfloat<A>(std::numeric_limits<float>::quiet_NaN());
+    for (int i = 0; i < 4; ++i) {
+      vmask<A> const mf = simd::to_float_mask(fresh[i]);
+      c.x[i] = simd::select(mf, fx, c.x[i]), c.y[i] = simd::select(mf, fy, c.y[i]);
+      c.z[i] = simd::select(mf, fz, c.z[i]), c.s[i] = simd::select(mf, fs, c.s[i]);
+    }
+    return c;
   }
 };
 
