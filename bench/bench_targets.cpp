@@ -12,7 +12,9 @@
 // value range, unit distance = diagonal / 10, as cellray-render) at the
 // largest step whose image is within 1/255 RMSE of the reference renderer
 // (checked on a 128x128 frame), for point samples (the step is the sample
-// spacing) and cell segments (the step is the longest integration piece).
+// spacing) and cell segments (the step is the longest integration piece;
+// tet meshes march through their face neighbours, and are timed through the
+// tree alone too).
 // The shadow + AO line times the secondary rays alone, as differences of
 // frames with and without them in interleaved rounds (secondary_rounds).
 
@@ -65,8 +67,8 @@ struct Subject {
   float vmin = 0.f, vmax = 0.f;
 
   Scene scene() const { return hex ? Scene(hexes, bvh) : Scene(tets, bvh); }
-  /// With the face neighbours (tets): what DVR and marched AO rays use.
-  Scene dvr_scene() const { return hex ? Scene(hexes, bvh) : Scene(tets, bvh, nullptr, &neighbours); }
+  /// With the face neighbours (tets): DVR segments and AO rays march.
+  Scene scene_with_neighbours() const { return hex ? Scene(hexes, bvh) : Scene(tets, bvh, nullptr, &neighbours); }
   uint64_t cells() const { return hex ? hexes.cell_count() : tets.cell_count(); }
 };
 
@@ -177,7 +179,7 @@ struct DvrResult {
 /// meshes' segments march through face neighbours; the tree-only segments
 /// are timed too at the same step, for the ratio.
 DvrResult best_dvr(Subject const& s, Options const& o) {
-  Scene const scene = s.dvr_scene(), tree_only = s.scene();
+  Scene const scene = s.scene_with_neighbours(), tree_only = s.scene();
   Camera const check_cam = camera_for(s, o.check_size), cam = camera_for(s, o.size);
   DvrParams p = dvr_params(s);
   Image const reference = render_dvr_reference(scene, check_cam, p);
@@ -241,7 +243,7 @@ double cpu_seconds(std::function<void()> const& f) {
 void secondary_rounds(Subject const& s, Options const& o, std::vector<std::pair<SecondaryQuery, Traversal>> const& variants,
                       int rounds, std::vector<std::vector<double>>& times) {
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, 1);
-  Scene const scene = s.dvr_scene();  // with the face neighbours: `march` uses them, the others not
+  Scene const scene = s.scene_with_neighbours();  // with the face neighbours: `march` uses them, the others not
   Camera const cam = camera_for(s, o.size / 2);
   IsoParams const plain = iso_params(s), lit = lit_params(s, cam);
   times.assign(variants.size(), {});

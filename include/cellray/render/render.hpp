@@ -41,7 +41,8 @@ template <int N> struct ScenePart {
 /// rays march from their hit cells (traverse/march.hpp; component8, 1 thread:
 /// DVR 2.8x the rays per second, shadow + AO rays 1.1x). The same image up
 /// to rounding (AO: bit for bit); without them (nullptr) both use the tree
-/// alone. Used only when a scene has one part.
+/// alone. Used only when a scene has one part, and for meshes whose gather
+/// offsets fit 31 bits (under 2^29 cells and 2^31 / 3 vertices).
 template <> struct ScenePart<4> {
   CellMesh<4> mesh;
   MinMaxBvh const* bvh = nullptr;
