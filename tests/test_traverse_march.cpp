@@ -24,6 +24,7 @@
 #include <cellray/traverse/occlusion_query.hpp>
 
 #include "support/march_probe.hpp"
+#include "support/ray_sets.hpp"
 #include "support/test_isa.hpp"
 
 // One namespace per file: a stage's files compile as one unity TU
@@ -31,6 +32,7 @@
 namespace test_traverse_march {
 
 using namespace cellray;
+using test::random_rays;
 using test::MarchProbeOut;
 
 namespace {
@@ -125,21 +127,6 @@ void check_ray(TetMesh const& mesh, Ray const& r, ValueWindows const& w, MarchPr
     INFO("cell " << x.cell << " t " << x.t_in << ".." << x.t_out);
     CHECK(found);
   }
-}
-
-std::vector<Ray> random_rays(int n, uint32_t seed, bool windows) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(-1.f, 1.f), u01(0.f, 1.f);
-  std::vector<Ray> rays;
-  for (int i = 0; i < n; ++i) {
-    glm::vec3 const target(u(rng), u(rng), u(rng));
-    glm::vec3 org = glm::vec3(u(rng), u(rng), u(rng)) * 0.3f + glm::vec3(0.f, 0.f, -2.5f);
-    if (i % 3 == 2) org = glm::vec3(u(rng), u(rng), u(rng)) * 2.5f;  // some start inside the mesh
-    Ray r{org, 0.f, target - org, 1e30f};
-    if (windows) r.tmin = 0.6f + 0.4f * u01(rng), r.tmax = r.tmin + 0.05f + 0.3f * u01(rng);
-    rays.push_back(r);
-  }
-  return rays;
 }
 
 /// Rays in the planes, along the lines and through the vertices of the

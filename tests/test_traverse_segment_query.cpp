@@ -24,6 +24,7 @@
 #include <cellray/cells/reference.hpp>
 #include <cellray/mesh/generate.hpp>
 
+#include "support/ray_sets.hpp"
 #include "support/segment_probe.hpp"
 #include "support/test_isa.hpp"
 
@@ -32,6 +33,7 @@
 namespace test_traverse_segment_query {
 
 using namespace cellray;
+using test::random_rays;
 using test::SegmentProbeOut;
 
 namespace {
@@ -135,26 +137,6 @@ void check_ray(TetMesh const& mesh, Ray const& r, SegmentProbeOut const& q, bool
     INFO("cell " << x.cell << " t " << x.t_in << ".." << x.t_out);
     CHECK(found);
   }
-}
-
-std::vector<Ray> random_rays(int n, uint32_t seed, bool windows) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(-1.f, 1.f), u01(0.f, 1.f);
-  std::vector<Ray> rays;
-  for (int i = 0; i < n; ++i) {
-    // From outside the cube towards a point inside it, some through the
-    // centre of a packet's neighbourhood (coherent), some anywhere.
-    glm::vec3 const target(u(rng), u(rng), u(rng));
-    glm::vec3 org = glm::vec3(u(rng), u(rng), u(rng)) * 0.3f + glm::vec3(0.f, 0.f, -2.5f);
-    if (i % 3 == 2) org = glm::vec3(u(rng), u(rng), u(rng)) * 2.5f;
-    Ray r{org, 0.f, target - org, 1e30f};
-    if (windows) {
-      // A window ending inside the mesh (in units of dir: target at t = 1).
-      r.tmin = 0.6f + 0.4f * u01(rng), r.tmax = r.tmin + 0.05f + 0.3f * u01(rng);
-    }
-    rays.push_back(r);
-  }
-  return rays;
 }
 
 /// Rays in the planes and along the lines of the regular lattice of `n`

@@ -118,6 +118,17 @@ template <class A, int N> inline void swap_corners_if(CellCorners<A, N>& c, int 
   }
 }
 
+/// sort_tet_corners' network on four id vectors alone.
+template <class A> inline void sort_tet_ids(vint<A> (&vs)[4]) {
+  auto cmpx = [&vs](int i, int j) {
+    vmaski<A> const m = vs[i] > vs[j];
+    vint<A> const lo = simd::select(m, vs[j], vs[i]);
+    vs[j] = simd::select(m, vs[i], vs[j]);
+    vs[i] = lo;
+  };
+  cmpx(0, 1), cmpx(2, 3), cmpx(0, 2), cmpx(1, 3), cmpx(1, 2);
+}
+
 template <class A> inline void sort_tet_corners(CellCorners<A, 4>& c) {
   swap_corners_if(c, 0, 1);
   swap_corners_if(c, 2, 3);
@@ -236,17 +247,9 @@ inline CellCorners<A, N> gather_corners(CellMesh<N> const& mesh, vint<A> const& 
     auto const* idx = reinterpret_cast<int32_t const*>(mesh.indices32());
     vint<A> vs[N];
     for (int i = 0; i < N; ++i) vs[i] = simd::gather(idx, cell * vint<A>(N) + vint<A>(i));
-    if constexpr (N == 4) {
-      // sort_tet_corners' network on the ids alone (here id = vertex index),
-      // before the loads: the same order, without permuting 5 x 4 vectors.
-      auto cmpx = [&vs](int i, int j) {
-        vmaski<A> const m = vs[i] > vs[j];
-        vint<A> const lo = simd::select(m, vs[j], vs[i]);
-        vs[j] = simd::select(m, vs[i], vs[j]);
-        vs[i] = lo;
-      };
-      cmpx(0, 1), cmpx(2, 3), cmpx(0, 2), cmpx(1, 3), cmpx(1, 2);
-    }
+    // sort_tet_corners' network on the ids alone (here id = vertex index),
+    // before the loads: the same order, without permuting 5 x 4 vectors.
+    if constexpr (N == 4) isa_detail::sort_tet_ids<A>(vs);
     for (int i = 0; i < N; ++i) {
       vint<A> const v = vs[i];
       vint<A> const v3 = v * vint<A>(3);

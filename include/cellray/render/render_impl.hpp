@@ -493,6 +493,28 @@ template <class B> inline vfloat<B> vexp(vfloat<B> const& x) {
   else return xsimd::exp(x);
 }
 
+/// The transfer function over a piece of length `d` whose midpoint value is
+/// `v`, per lane: colour from the table (linear in between) and opacity
+/// 1 - exp(d ln(transmittance per unit length)); a NaN value is transparent.
+template <class A> struct PieceColor {
+  vfloat<A> r, g, b, a;
+};
+template <class A> inline PieceColor<A> piece_color(PreparedTf const& ptf, vfloat<A> const& v, vfloat<A> const& d) {
+  vfloat<A> const lo(ptf.lo), scale(ptf.scale), zero(0.f), one(1.f);
+  vfloat<A> const last(float(ptf.r.size() - 1) - 1e-3f);
+  vmask<A> const ok = !simd::isnan(v);
+  vfloat<A> const x = simd::min(simd::max((simd::select(ok, v, lo) - lo) * scale, zero), last);
+  vint<A> const i = TfTable<A>::template xsimd_trunc<A>(x);
+  vfloat<A> const f = x - TfTable<A>::template to_float<A>(i);
+  vint<A> const i1 = i + vint<A>(1);
+  auto lerp = [&](std::vector<float> const& t) {
+    vfloat<A> const a = simd::gather(t.data(), i);
+    return a + f * (simd::gather(t.data(), i1) - a);
+  };
+  vfloat<A> const lt = simd::select(ok, simd::min(lerp(ptf.log_transmittance), zero), zero);
+  return {lerp(ptf.r), lerp(ptf.g), lerp(ptf.b), one - vexp<A>(lt * d)};
+}
+
 /// One ray's sorted segments over [from, to], unshaded: the pieces (midpoint
 /// value and length) listed scalar, then their transfer-function colour and
 /// opacity W pieces at a time (table gathers, vector exp), then composited
@@ -504,24 +526,11 @@ inline void integrate_pieces(PreparedTf const& ptf, float step, float terminatio
   constexpr int cap = 128;  // pieces per batch (a multiple of every W)
   alignas(64) float pv[cap], pd[cap];
   alignas(64) float pr[cap], pg[cap], pb[cap], pa[cap];
-  vfloat<A> const lo(ptf.lo), scale(ptf.scale), zero(0.f), one(1.f);
-  vfloat<A> const last(float(ptf.r.size() - 1) - 1e-3f);
   auto flush = [&](int np) {
     for (int j = np; j % W; ++j) pv[j] = ptf.lo, pd[j] = 0.f;  // padding: zero length, no opacity
     for (int j = 0; j < np; j += W) {
-      vfloat<A> const v = simd::load<A>(pv + j);
-      vmask<A> const ok = !simd::isnan(v);
-      vfloat<A> const x = simd::min(simd::max((simd::select(ok, v, lo) - lo) * scale, zero), last);
-      vint<A> const i = TfTable<A>::template xsimd_trunc<A>(x);
-      vfloat<A> const f = x - TfTable<A>::template to_float<A>(i);
-      vint<A> const i1 = i + vint<A>(1);
-      auto lerp = [&](std::vector<float> const& t) {
-        vfloat<A> const a = simd::gather(t.data(), i);
-        return a + f * (simd::gather(t.data(), i1) - a);
-      };
-      vfloat<A> const lt = simd::select(ok, simd::min(lerp(ptf.log_transmittance), zero), zero);
-      simd::store(pa + j, one - vexp<A>(lt * simd::load<A>(pd + j)));
-      simd::store(pr + j, lerp(ptf.r)), simd::store(pg + j, lerp(ptf.g)), simd::store(pb + j, lerp(ptf.b));
+      PieceColor<A> const c = piece_color<A>(ptf, simd::load<A>(pv + j), simd::load<A>(pd + j));
+      simd::store(pa + j, c.a), simd::store(pr + j, c.r), simd::store(pg + j, c.g), simd::store(pb + j, c.b);
     }
     for (int j = 0; j < np && alpha < termination; ++j) {
       float const w = std::min((1.f - alpha) * pa[j], termination - alpha);  // exact termination
@@ -690,7 +699,6 @@ void integrate_march(PreparedScene const& s, PreparedPart const& part, RayPacket
   PreparedTf const& ptf = *s.tf;
   bool const shade = p.shading.enabled;
   vfloat<A> const zero(0.f), one(1.f), half(0.5f), term(p.termination), inv_step(1.f / s.step);
-  vfloat<A> const lo(ptf.lo), scale(ptf.scale), last(float(ptf.r.size() - 1) - 1e-3f);
   TetMarch<A> m(part.tree, *part.tets, *part.neighbours, r, s.windows, t_enter, t_exit);
   vmask<A> live = inside;
   while (simd::any(live)) {
@@ -718,24 +726,10 @@ void integrate_march(PreparedScene const& s, PreparedPart const& part, RayPacket
       for (vmask<A> on = go; simd::any(on); piece = piece + one, on = on && piece < pieces && ca < term) {
         vfloat<A> const tm = st.a + (piece + half) * d;
         vfloat<A> const lam = simd::select(long_enough, (tm - st.k.t_in) * inv_len, zero);
-        vfloat<A> const v = st.k.s_in + lam * ds;
-        // The transfer function as integrate_pieces reads it (table, linear
-        // in between, NaN transparent).
-        vmask<A> const ok = !simd::isnan(v);
-        vfloat<A> const x = simd::min(simd::max((simd::select(ok, v, lo) - lo) * scale, zero), last);
-        vint<A> const i = TfTable<A>::template xsimd_trunc<A>(x);
-        vfloat<A> const f = x - TfTable<A>::template to_float<A>(i);
-        vint<A> const i1 = i + vint<A>(1);
-        auto lerp = [&](std::vector<float> const& t) {
-          vfloat<A> const a = simd::gather(t.data(), i);
-          return a + f * (simd::gather(t.data(), i1) - a);
-        };
-        vfloat<A> const lt = simd::select(ok, simd::min(lerp(ptf.log_transmittance), zero), zero);
-        vfloat<A> const pa = one - vexp<A>(lt * d);
-        vfloat<A> sr = lerp(ptf.r), sg = lerp(ptf.g), sb = lerp(ptf.b);
-        if (shade) shade_batch<A>(p.shading, s.inv_gradient_full, st.gradient.x, st.gradient.y, st.gradient.z, r, sr, sg, sb);
-        vfloat<A> const w = simd::select(on, simd::min((one - ca) * pa, term - ca), zero);  // exact termination
-        cr = cr + w * sr, cg = cg + w * sg, cb = cb + w * sb;
+        PieceColor<A> c = piece_color<A>(ptf, st.k.s_in + lam * ds, d);  // as integrate_pieces
+        if (shade) shade_batch<A>(p.shading, s.inv_gradient_full, st.gradient.x, st.gradient.y, st.gradient.z, r, c.r, c.g, c.b);
+        vfloat<A> const w = simd::select(on, simd::min((one - ca) * c.a, term - ca), zero);  // exact termination
+        cr = cr + w * c.r, cg = cg + w * c.g, cb = cb + w * c.b;
         ca = ca + w;
       }
     }

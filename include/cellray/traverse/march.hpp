@@ -186,13 +186,7 @@ template <class A> struct TetMarch {
     auto const* idx = reinterpret_cast<int32_t const*>(mesh.indices32());
     vint<A> vs[4];
     for (int i = 0; i < 4; ++i) vs[i] = simd::gather(idx, cl * vint<A>(4) + vint<A>(i));
-    auto cmpx = [&vs](int i, int j) {
-      vmaski<A> const m = vs[i] > vs[j];
-      vint<A> const lo = simd::select(m, vs[j], vs[i]);
-      vs[j] = simd::select(m, vs[i], vs[j]);
-      vs[i] = lo;
-    };
-    cmpx(0, 1), cmpx(2, 3), cmpx(0, 2), cmpx(1, 3), cmpx(1, 2);
+    isa_detail::sort_tet_ids<A>(vs);
     vint<A> fresh_id = vs[0];
     vmaski<A> fresh[4];
     for (int i = 0; i < 4; ++i) {
