@@ -32,7 +32,9 @@
 namespace test_traverse_march {
 
 using namespace cellray;
+using test::lattice_rays;
 using test::random_rays;
+using test::union_length;
 using test::MarchProbeOut;
 
 namespace {
@@ -56,17 +58,6 @@ std::vector<Crossing> oracle(TetMesh const& mesh, Ray const& r, ValueWindows con
     out.push_back({k.t_in, k.t_out, k.s_in, k.s_out, c});
   }
   return out;
-}
-
-/// Length of the union of [a, b] intervals clipped to [lo, hi].
-double union_length(std::vector<std::pair<double, double>> v, double lo, double hi) {
-  std::sort(v.begin(), v.end());
-  double total = 0, end = lo;
-  for (auto [a, b] : v) {
-    a = std::max(a, end), b = std::min(b, hi);
-    if (b > a) total += b - a, end = b;
-  }
-  return total;
 }
 
 struct Marched {
@@ -129,23 +120,6 @@ void check_ray(TetMesh const& mesh, Ray const& r, ValueWindows const& w, MarchPr
   }
 }
 
-/// Rays in the planes, along the lines and through the vertices of the
-/// regular lattice of `n` cells per side over [-1, 1]^3.
-std::vector<Ray> lattice_rays(int n) {
-  std::vector<Ray> rays;
-  float const h = 2.f / float(n);
-  for (int i = 1; i < n; i += 2)
-    for (int j = 1; j < n; j += 2) {
-      float const a = -1.f + h * float(i), b = -1.f + h * float(j);
-      rays.push_back({{a, b, -1.5f}, 0.f, {0.f, 0.f, 1.f}, 3.f});                    // along an edge
-      rays.push_back({{-1.5f, a, b + 0.5f * h}, 0.f, {1.f, 0.f, 0.f}, 3.f});         // in a face plane
-      rays.push_back({{-1.5f, -1.5f, b}, 0.f, {1.f, 1.f, 0.f}, 3.f});                // face diagonals
-      rays.push_back({{a, -1.5f, -1.5f}, 0.f, {0.f, 1.f, 1.f}, 3.f});                // through vertices
-      rays.push_back({{-1.5f, -1.5f, -1.5f}, 0.f, {1.f, 1.f + 0.1f * a, 1.f}, 4.f});  // near the body diagonal
-    }
-  return rays;
-}
-
 /// The generated mesh's cells with those whose centroid satisfies `drop`
 /// removed (same vertices).
 std::vector<uint32_t> cells_without(GeneratedMesh<4> const& g, bool (*drop)(glm::vec3)) {
@@ -184,7 +158,7 @@ TEST_CASE("march: rays along shared edges, in shared faces and through vertices 
           "[traverse][isa]") {
   auto const g = generate_tets(6 * 6 * 6 * 6, 1, 0.f);
   TetMesh const mesh = g.mesh();
-  std::vector<Ray> const rays = lattice_rays(6);
+  std::vector<Ray> const rays = lattice_rays(6, 2);
   ValueWindows const all;
   Marched const m = march(mesh, rays, all, 0);
   for (size_t i = 0; i < rays.size(); ++i) check_ray(mesh, rays[i], all, m.out[i], false);

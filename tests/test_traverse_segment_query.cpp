@@ -33,7 +33,9 @@
 namespace test_traverse_segment_query {
 
 using namespace cellray;
+using test::lattice_rays;
 using test::random_rays;
+using test::union_length;
 using test::SegmentProbeOut;
 
 namespace {
@@ -76,17 +78,6 @@ bool same_lists(SegmentProbeOut const& a, SegmentProbeOut const& b) {
       return false;
   }
   return true;
-}
-
-/// Length of the union of [a, b] intervals clipped to [lo, hi].
-double union_length(std::vector<std::pair<double, double>> v, double lo, double hi) {
-  std::sort(v.begin(), v.end());
-  double total = 0, end = lo;
-  for (auto [a, b] : v) {
-    a = std::max(a, end), b = std::min(b, hi);
-    if (b > a) total += b - a, end = b;
-  }
-  return total;
 }
 
 /// Checks one ray's list against the oracle. Tolerances: positions and t are
@@ -139,23 +130,6 @@ void check_ray(TetMesh const& mesh, Ray const& r, SegmentProbeOut const& q, bool
   }
 }
 
-/// Rays in the planes and along the lines of the regular lattice of `n`
-/// cells per side over [-1, 1]^3.
-std::vector<Ray> lattice_rays(int n) {
-  std::vector<Ray> rays;
-  float const h = 2.f / float(n);
-  for (int i = 1; i < n; i += 2)
-    for (int j = 1; j < n; j += 3) {
-      float const a = -1.f + h * float(i), b = -1.f + h * float(j);
-      rays.push_back({{a, b, -1.5f}, 0.f, {0.f, 0.f, 1.f}, 3.f});                    // along an edge
-      rays.push_back({{-1.5f, a, b + 0.5f * h}, 0.f, {1.f, 0.f, 0.f}, 3.f});         // in a face plane
-      rays.push_back({{-1.5f, -1.5f, b}, 0.f, {1.f, 1.f, 0.f}, 3.f});                // face diagonals
-      rays.push_back({{a, -1.5f, -1.5f}, 0.f, {0.f, 1.f, 1.f}, 3.f});                // face diagonals
-      rays.push_back({{-1.5f, -1.5f, -1.5f}, 0.f, {1.f, 1.f + 0.1f * a, 1.f}, 4.f});  // near the body diagonal
-    }
-  return rays;
-}
-
 void check_all(TetMesh const& mesh, std::vector<Ray> const& rays, bool generic = true) {
   MinMaxBvh const bvh = build_minmax_bvh(mesh);
   ValueWindows const all;
@@ -179,7 +153,7 @@ TEST_CASE("segments: packet, SPMD and hybrid vs the double oracle on jittered te
 
 TEST_CASE("segments: shared edges and faces of a regular lattice", "[traverse][isa]") {
   auto const g = generate_tets(6 * 6 * 6 * 6, 1, 0.f);
-  check_all(g.mesh(), lattice_rays(6), false);
+  check_all(g.mesh(), lattice_rays(6, 3), false);
 }
 
 TEST_CASE("segments: gradients are the tets' analytic gradients", "[traverse][isa]") {

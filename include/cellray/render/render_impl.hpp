@@ -716,7 +716,7 @@ void integrate_march(PreparedScene const& s, PreparedPart const& part, RayPacket
     vmask<A> const go = st.visible && ca < term;
     if (simd::any(go)) {
       vfloat<A> const len = st.e - st.a;
-      vfloat<A> const pieces = simd::max(one, xsimd::ceil(len * inv_step));
+      vfloat<A> const pieces = simd::max(one, simd::ceil(len * inv_step));
       vfloat<A> const d = len / pieces;
       vfloat<A> const seg_len = st.k.t_out - st.k.t_in;
       vmask<A> const long_enough = seg_len > zero;

@@ -9,6 +9,7 @@
 #include "../cells/queries.hpp"
 #include "../cells/tet.hpp"
 #include "packet.hpp"
+#include "tree_view.hpp"
 
 namespace cellray {
 inline namespace CELLRAY_ISA_NS {
@@ -92,6 +93,33 @@ CELLRAY_FORCE_INLINE vmask<A> cell_box_hit(RayPacket<A> const& r, CellCorners<A,
   cell_box(c, lo, hi);
   vfloat<A> tn;
   return box_hit_varying(r, lo, hi, t_lo, t_hi, tn);
+}
+
+/// The cells of packet-leaf items [first, first + n) worth a kernel call,
+/// cheapest test first: the corner values (`keep(lo, hi)` on their range,
+/// false for a NaN cell), then the cell's box in scalar against [t_lo,
+/// t_hi()] for the lanes `m` (t_hi re-read per cell: a query's interval
+/// shrinks as it finds cells); only then are the corners ordered and
+/// broadcast for `visit(corners, lanes in the box, item slot, cell id)`.
+/// A packet misses most cells of a leaf it reaches.
+template <class A, int N, class Keep, class THi, class Visit>
+CELLRAY_FORCE_INLINE void for_each_leaf_cell(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A> const& r,
+                                             uint64_t first, uint32_t n, vmask<A> const& m, vfloat<A> const& t_lo,
+                                             Keep const& keep, THi const& t_hi, Visit&& visit) {
+  float const* xyz = mesh.positions();
+  for (uint64_t i = first; i < first + n; ++i) {
+    uint64_t const cell = tree.item(i);
+    ScalarCorners<N> k;
+    read_corner_values(mesh, cell, k);
+    if (!keep(k.lo, k.hi)) continue;
+    float lo[3], hi[3];
+    corner_box(xyz, k, lo, hi);
+    vfloat<A> tn;
+    vmask<A> const in_box = m && box_hit(r, lo, hi, t_lo, t_hi(), tn);
+    if (simd::none(in_box)) continue;
+    order_corners(mesh.vertex_count(), k);
+    visit(broadcast<A, N>(mesh, k), in_box, i, cell);
+  }
 }
 
 /// Nearest crossing of any isovalue with t in [t_lo, t_hi] (per lane) in one

@@ -83,21 +83,13 @@ template <class A, int N> struct FirstHitQuery {
 
   void leaf(uint64_t first, uint32_t count, vmask<A> const& m) {
     if (!mesh.values()) return;  // NaN everywhere: no cell can hold a crossing
-    float const* xyz = mesh.positions();
-    for (uint64_t i = first; i < first + count; ++i) {
-      // Cheapest test first: the corner values (is an isovalue in range?),
-      // then the cell's box in scalar (a packet misses most cells of a leaf
-      // it reaches); only then order the corners and broadcast them.
-      ScalarCorners<N> k;
-      read_corner_values(mesh, tree.item(i), k);
-      if (!isos.overlaps(k.lo, k.hi)) continue;  // false for NaN
-      float lo[3], hi[3];
-      corner_box(xyz, k, lo, hi);
-      vfloat<A> tn;
-      if (simd::none(m && box_hit(r, lo, hi, r.tmin, hit.t, tn))) continue;
-      order_corners(mesh.vertex_count(), k);
-      cell_hits(broadcast<A, N>(mesh, k), m, vint<A>(int32_t(i)));
-    }
+    // Every lane of `m` goes to the kernel, not only those in the box.
+    for_each_leaf_cell<A, N>(
+        tree, mesh, r, first, count, m, r.tmin, [this](float vmin, float vmax) { return isos.overlaps(vmin, vmax); },
+        [this] { return hit.t; },
+        [this, &m](CellCorners<A, N> const& c, vmask<A> const&, uint64_t slot, uint64_t) {
+          cell_hits(c, m, vint<A>(int32_t(slot)));
+        });
   }
 
   void leaf_items(vint<A> const& slots, vmask<A> const& m) {

@@ -63,20 +63,13 @@ template <class A> struct FirstCellQuery {
     best_t = simd::select(ok, k.t_in, best_t);
     cell = simd::select(simd::to_int_mask(ok), cells, cell);
   }
-  void leaf(uint64_t first, uint32_t n, vmask<A> const& m) {
-    for (uint64_t i = first; i < first + n; ++i) {
-      uint64_t const id = tree_->item(i);
-      ScalarCorners<4> k;
-      read_corner_values(*mesh_, id, k);
-      if (!windows.overlaps(k.lo, k.hi)) continue;  // false for NaN
-      float box_lo[3], box_hi[3];
-      corner_box(mesh_->positions(), k, box_lo, box_hi);
-      vfloat<A> tn;
-      vmask<A> const in_box = m && box_hit(r, box_lo, box_hi, lo, t_hi(), tn);
-      if (simd::none(in_box)) continue;
-      order_corners(mesh_->vertex_count(), k);
-      visit(broadcast<A, 4>(*mesh_, k), in_box, vint<A>(int32_t(id)));
-    }
+  void leaf(uint64_t first, uint32_t n, vmask<A> const& m) {  // as SegmentQuery::leaf
+    for_each_leaf_cell<A, 4>(
+        *tree_, *mesh_, r, first, n, m, lo, [this](float vmin, float vmax) { return windows.overlaps(vmin, vmax); },
+        [this] { return t_hi(); },
+        [this](CellCorners<A, 4> const& c, vmask<A> const& in_box, uint64_t, uint64_t id) {
+          visit(c, in_box, vint<A>(int32_t(id)));
+        });
   }
   void leaf_items(vint<A> const& slots, vmask<A> const& m) {
     vint<A> const cv = slot_cells<A>(*tree_, slots, m);

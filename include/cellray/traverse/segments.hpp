@@ -212,19 +212,12 @@ template <class A, int N> struct SegmentQuery {
   // every lane: they are not ordered and broadcast; 0.97x frame time there,
   // boxturb 0.98x, a generated 2M-tet mesh 1.015x).
   void leaf(uint64_t first, uint32_t n, vmask<A> const& m) {
-    for (uint64_t i = first; i < first + n; ++i) {
-      uint64_t const cell = tree_->item(i);
-      ScalarCorners<N> k;
-      read_corner_values(*mesh_, cell, k);
-      if (!windows.overlaps(k.lo, k.hi)) continue;  // false for NaN
-      float box_lo[3], box_hi[3];
-      corner_box(mesh_->positions(), k, box_lo, box_hi);
-      vfloat<A> tn;
-      vmask<A> const in_box = m && box_hit(r, box_lo, box_hi, lo, t_hi(), tn);
-      if (simd::none(in_box)) continue;
-      order_corners(mesh_->vertex_count(), k);
-      visit(broadcast<A, N>(*mesh_, k), in_box, vint<A>(int32_t(cell)));
-    }
+    for_each_leaf_cell<A, N>(
+        *tree_, *mesh_, r, first, n, m, lo, [this](float vmin, float vmax) { return windows.overlaps(vmin, vmax); },
+        [this] { return t_hi(); },
+        [this](CellCorners<A, N> const& c, vmask<A> const& in_box, uint64_t, uint64_t cell) {
+          visit(c, in_box, vint<A>(int32_t(cell)));
+        });
   }
   void leaf_items(vint<A> const& slots, vmask<A> const& m) {
     vint<A> const cv = slot_cells<A>(*tree_, slots, m);
