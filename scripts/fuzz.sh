@@ -12,7 +12,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 build=${2:-build-fuzz}
 cxx=${CELLRAY_FUZZ_CXX:-clang++-14}
-shared=../shared/data/vtk-data
+real=tests/data/real/vtk-data  # the repository's copies of small real files
 
 # One ISA unit (the widest this CPU runs) keeps the instrumented build short.
 cmake -S tests/fuzz -B "$build" -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
@@ -39,6 +39,6 @@ run() {
   fi
   grep -E "^stat::number_of_executed_units|^stat::peak_rss_mb" "$build/$h.log" || true
 }
-run fuzz_vtk_legacy vtk tests/data/broken/*.vtk "$shared/tetraMesh.vtk" "$shared/post.vtk"
-run fuzz_vtu vtu tests/data/broken/*.vtu "$shared/Tetrahedron.vtu" "$shared/disk_out_ref.vtu"
+run fuzz_vtk_legacy vtk tests/data/broken/*.vtk "$real/tetraMesh.vtk" "$real/post.vtk"
+run fuzz_vtu vtu tests/data/broken/*.vtu "$real/Tetrahedron.vtu" "$real/disk_out_ref.vtu"
 run fuzz_validate validate

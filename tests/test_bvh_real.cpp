@@ -1,4 +1,5 @@
-// The BVH on real meshes from ../shared/data (read with the io readers):
+// The BVH on real meshes (the repository's copies of ../shared/data files in
+// tests/data/real, read with the io readers):
 // every builder checked against the brute-force oracle, refits between the
 // files' own point arrays, and one BVH over two files as pieces.
 
@@ -9,6 +10,7 @@
 #include <cellray/bvh/bvh.hpp>
 #include <cellray/io/read_mesh.hpp>
 
+#include "support/test_data.hpp"
 #include "test_bvh_oracle.hpp"
 
 // One namespace per file: a stage's files compile as one unity TU
@@ -23,7 +25,7 @@ namespace {
 UnstructuredGrid read(std::string const& rel, bool skip_other_cells = false) {
   ReadOptions o;
   o.skip_unsupported_cells = skip_other_cells;
-  return read_mesh(std::string(CELLRAY_SHARED_DATA) + "/" + rel, o);
+  return read_mesh(real_file(rel), o);
 }
 
 }  // namespace

@@ -21,6 +21,7 @@
 
 #include "support/adversarial.hpp"
 #include "support/cells_runner.hpp"
+#include "support/test_data.hpp"
 #include "support/test_isa.hpp"
 
 // One namespace per file: a stage's files compile as one unity TU
@@ -381,7 +382,7 @@ TEST_CASE("watertight: generated tets and hexes", "[cells][watertight][isa]") {
 
 TEST_CASE("watertight: real meshes (post.vtk tets, disk_out_ref.vtu hexes)", "[cells][watertight][isa]") {
   CellRunner const run{false, test::isa()};
-  auto const post = read_mesh(CELLRAY_SHARED_DATA "/vtk-data/post.vtk");
+  auto const post = read_mesh(test::real_file("vtk-data/post.vtk"));
   auto const t = measure(run, post.tet_mesh(), 20, false, 3);
   report("post.vtk", run, t);
   CHECK(t[0].doubles == 0);
@@ -394,7 +395,7 @@ TEST_CASE("watertight: real meshes (post.vtk tets, disk_out_ref.vtu hexes)", "[c
     CHECK(k.gaps <= k.samples / 50);
     CHECK(k.lost <= k.aimed / 4);  // measured <= 3 of 16 (SSE4, vertex rays)
   }
-  auto const disk = read_mesh(CELLRAY_SHARED_DATA "/vtk-data/disk_out_ref.vtu");
+  auto const disk = read_mesh(test::real_file("vtk-data/disk_out_ref.vtu"));
   auto const h = measure(run, disk.hex_mesh().with_array("Temp"), 10, false, 4);
   report("disk_out_ref.vtu", run, h);
   CHECK(h[0].lost == 0);

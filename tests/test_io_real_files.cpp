@@ -1,5 +1,7 @@
 // Every real mesh in ../shared/data loads, and its counts and ranges match
 // the README there (read back with VTK 9.1, an independent implementation).
+// The small ones are read from the repository's copies (tests/data/real),
+// the others from $CELLRAY_DATA_DIR, skipped when missing there.
 
 #include <catch2/catch.hpp>
 
@@ -13,15 +15,16 @@
 #include <cellray/io/read_mesh.hpp>
 #include <cellray/mesh/validate.hpp>
 
+#include "support/test_data.hpp"
+
 // One namespace per file: a stage's files compile as one unity TU
 // (tests/CMakeLists.txt), where file-local names must not meet.
 namespace test_io_real_files {
 
 using namespace cellray;
+using test::real_file;
 
 namespace {
-
-std::string data(char const* rel) { return std::string(CELLRAY_SHARED_DATA) + "/" + rel; }
 
 std::pair<float, float> range(std::vector<float> const& a, std::vector<float> const& b = {}) {
   float lo = std::numeric_limits<float>::infinity(), hi = -lo;
@@ -67,7 +70,7 @@ void check_views(UnstructuredGrid const& g) {
 }  // namespace
 
 TEST_CASE("vtk-data/Tetrahedron.vtu (appended raw, UInt64, Int64 connectivity)", "[io][data]") {
-  UnstructuredGrid const g = read_mesh(data("vtk-data/Tetrahedron.vtu"));
+  UnstructuredGrid const g = read_mesh(real_file("vtk-data/Tetrahedron.vtu"));
   CHECK(g.tet_count() == 96);
   CHECK(g.hex_count() == 0);
   CHECK(g.vertex_count() == 35);
@@ -78,7 +81,7 @@ TEST_CASE("vtk-data/Tetrahedron.vtu (appended raw, UInt64, Int64 connectivity)",
 }
 
 TEST_CASE("vtk-data/tetraMesh.vtk (legacy 2.0 ASCII, int scalars, empty CELL_DATA)", "[io][data]") {
-  UnstructuredGrid const g = read_mesh(data("vtk-data/tetraMesh.vtk"));
+  UnstructuredGrid const g = read_mesh(real_file("vtk-data/tetraMesh.vtk"));
   CHECK(g.tet_count() == 160);
   CHECK(g.vertex_count() == 55);
   check_point(g, "scalars", 0, 4);
@@ -87,7 +90,9 @@ TEST_CASE("vtk-data/tetraMesh.vtk (legacy 2.0 ASCII, int scalars, empty CELL_DAT
 }
 
 TEST_CASE("vtk-data/notch_stress_fixed.vtk (5.1 BINARY, hexes + 4 wedges)", "[io][data]") {
-  std::string const path = data("vtk-data/notch_stress_fixed.vtk");
+  auto const file = test::shared_data_file("vtk-data/notch_stress_fixed.vtk");
+  if (!file) return;
+  std::string const& path = *file;
   CHECK_THROWS_WITH(read_mesh(path), Catch::Contains(path) && Catch::Contains("4 wedge") &&
                                          Catch::Contains("skip_unsupported_cells"));
   ReadOptions skip;
@@ -108,7 +113,9 @@ TEST_CASE("vtk-data/notch_stress_fixed.vtk (5.1 BINARY, hexes + 4 wedges)", "[io
 }
 
 TEST_CASE("vtk-data/can.vtu (appended raw, vector point data only)", "[io][data]") {
-  UnstructuredGrid const g = read_mesh(data("vtk-data/can.vtu"));
+  auto const path = test::shared_data_file("vtk-data/can.vtu");
+  if (!path) return;
+  UnstructuredGrid const g = read_mesh(*path);
   CHECK(g.hex_count() == 4800);
   CHECK(g.vertex_count() == 6724);
   check_cell(g, "EQPS", 0.0215831, 2.89394);
@@ -126,7 +133,7 @@ TEST_CASE("vtk-data/can.vtu (appended raw, vector point data only)", "[io][data]
 }
 
 TEST_CASE("vtk-data/disk_out_ref.vtu (appended raw, zlib, float64 arrays)", "[io][data]") {
-  UnstructuredGrid const g = read_mesh(data("vtk-data/disk_out_ref.vtu"));
+  UnstructuredGrid const g = read_mesh(real_file("vtk-data/disk_out_ref.vtu"));
   CHECK(g.hex_count() == 7472);
   CHECK(g.vertex_count() == 8499);
   CHECK(g.point_arrays.size() == 6);
@@ -140,7 +147,7 @@ TEST_CASE("vtk-data/disk_out_ref.vtu (appended raw, zlib, float64 arrays)", "[io
 }
 
 TEST_CASE("vtk-data/post.vtk (3.0 BINARY, FIELD point data)", "[io][data]") {
-  UnstructuredGrid const g = read_mesh(data("vtk-data/post.vtk"));
+  UnstructuredGrid const g = read_mesh(real_file("vtk-data/post.vtk"));
   CHECK(g.tet_count() == 8750);
   CHECK(g.vertex_count() == 2288);
   check_point(g, "Pressure", 0.355368, 1.64124);
@@ -148,7 +155,7 @@ TEST_CASE("vtk-data/post.vtk (3.0 BINARY, FIELD point data)", "[io][data]") {
 }
 
 TEST_CASE("vtk-data/hexa.vtk (1.0 ASCII)", "[io][data]") {
-  UnstructuredGrid const g = read_mesh(data("vtk-data/hexa.vtk"));
+  UnstructuredGrid const g = read_mesh(real_file("vtk-data/hexa.vtk"));
   CHECK(g.report.format == "legacy VTK 1.0 ASCII");
   CHECK(g.hex_count() == 10648);
   CHECK(g.vertex_count() == 12167);
@@ -157,7 +164,9 @@ TEST_CASE("vtk-data/hexa.vtk (1.0 ASCII)", "[io][data]") {
 }
 
 TEST_CASE("vtk-data/kiefer_dataset.vtu (base64 zlib, tetra10, cell data only)", "[io][data]") {
-  UnstructuredGrid g = read_mesh(data("vtk-data/kiefer_dataset.vtu"));
+  auto const path = test::shared_data_file("vtk-data/kiefer_dataset.vtu");
+  if (!path) return;
+  UnstructuredGrid g = read_mesh(*path);
   CHECK(g.tet_count() == 56786);
   CHECK(g.vertex_count() == 102578);
   CHECK(g.report.cells_read.at(24) == 56786);
@@ -188,7 +197,7 @@ TEST_CASE("vtk-data/kiefer_dataset.vtu (base64 zlib, tetra10, cell data only)", 
 }
 
 TEST_CASE("openfoam/flange_heat.vtk (2.0 BINARY, hexes + 372 wedges, FIELD arrays)", "[io][data]") {
-  std::string const path = data("openfoam/flange_heat.vtk");
+  std::string const path = real_file("openfoam/flange_heat.vtk");
   CHECK_THROWS_WITH(read_mesh(path), Catch::Contains(path) && Catch::Contains("372 wedge"));
   ReadOptions skip;
   skip.skip_unsupported_cells = true;
@@ -206,7 +215,7 @@ TEST_CASE("openfoam/flange_heat.vtk (2.0 BINARY, hexes + 372 wedges, FIELD array
 }
 
 TEST_CASE("openfoam/component8_heat_84k.vtk", "[io][data]") {
-  UnstructuredGrid const g = read_mesh(data("openfoam/component8_heat_84k.vtk"));
+  UnstructuredGrid const g = read_mesh(real_file("openfoam/component8_heat_84k.vtk"));
   CHECK(g.tet_count() == 84438);
   CHECK(g.vertex_count() == 17667);
   check_point(g, "T", 273, 573);
@@ -215,7 +224,9 @@ TEST_CASE("openfoam/component8_heat_84k.vtk", "[io][data]") {
 }
 
 TEST_CASE("openfoam/component8_heat_608k.vtk (19 MB)", "[io][data]") {
-  UnstructuredGrid const g = read_mesh(data("openfoam/component8_heat_608k.vtk"));
+  auto const path = test::shared_data_file("openfoam/component8_heat_608k.vtk");
+  if (!path) return;
+  UnstructuredGrid const g = read_mesh(*path);
   CHECK(g.tet_count() == 608316);
   CHECK(g.vertex_count() == 112931);
   check_point(g, "T", 273, 573);
@@ -224,7 +235,9 @@ TEST_CASE("openfoam/component8_heat_608k.vtk (19 MB)", "[io][data]") {
 }
 
 TEST_CASE("openfoam/boxturb48_dns.vtk (two point and two cell arrays)", "[io][data]") {
-  UnstructuredGrid const g = read_mesh(data("openfoam/boxturb48_dns.vtk"));
+  auto const path = test::shared_data_file("openfoam/boxturb48_dns.vtk");
+  if (!path) return;
+  UnstructuredGrid const g = read_mesh(*path);
   CHECK(g.hex_count() == 110592);
   CHECK(g.vertex_count() == 117649);
   check_point(g, "enstrophy", 0.0015834, 0.717252);

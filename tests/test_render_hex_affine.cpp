@@ -14,6 +14,7 @@
 #include "support/render_fixtures.hpp"
 #include "support/sanitized.hpp"
 #include "support/sheared_lattice.hpp"
+#include "support/test_data.hpp"
 
 // One namespace per file: a stage's files compile as one unity TU
 // (tests/CMakeLists.txt), where file-local names must not meet.
@@ -63,7 +64,9 @@ TEST_CASE("fast vs reference: parallelepiped and mixed hex lattices", "[render][
 }
 
 TEST_CASE("fast vs reference: boxturb48_dns (structured hexes)", "[render][reference][isa][data]") {
-  auto const g = read_mesh(CELLRAY_SHARED_DATA "/openfoam/boxturb48_dns.vtk");
+  auto const path = shared_data_file("openfoam/boxturb48_dns.vtk");
+  if (!path) return;
+  auto const g = read_mesh(*path);
   auto const l = load(g.hex_mesh().with_array("enstrophy"));
   iso_vs_reference("boxturb48_dns enstrophy", l->scene(), 0.1f, 0.3f);
 }

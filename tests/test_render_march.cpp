@@ -17,6 +17,7 @@
 #include <cellray/mesh/neighbours.hpp>
 
 #include "support/render_fixtures.hpp"
+#include "support/test_data.hpp"
 
 // One namespace per file: a stage's files compile as one unity TU
 // (tests/CMakeLists.txt), where file-local names must not meet.
@@ -98,7 +99,7 @@ TEST_CASE("DVR march: holes, NaN cells and transparent stretches send rays back 
 }
 
 TEST_CASE("DVR march: component8 84k, the benchmark's transfer function", "[render][dvr][isa][data]") {
-  auto const g = read_mesh(CELLRAY_SHARED_DATA "/openfoam/component8_heat_84k.vtk");
+  auto const g = read_mesh(test::real_file("openfoam/component8_heat_84k.vtk"));
   TetMesh const mesh = g.tet_mesh().with_array("T");
   glm::vec3 lo(1e30f), hi(-1e30f);
   for (uint64_t v = 0; v < mesh.vertex_count(); ++v) lo = glm::min(lo, mesh.position(v)), hi = glm::max(hi, mesh.position(v));

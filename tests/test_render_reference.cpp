@@ -21,6 +21,7 @@
 
 #include "support/render_fixtures.hpp"
 #include "support/sanitized.hpp"
+#include "support/test_data.hpp"
 
 // One namespace per file: a stage's files compile as one unity TU
 // (tests/CMakeLists.txt), where file-local names must not meet.
@@ -210,10 +211,10 @@ TEST_CASE("fast vs reference: generated tets and hexes", "[render][reference][is
 }
 
 TEST_CASE("fast vs reference: post.vtk (tets) and disk_out_ref.vtu (hexes)", "[render][reference][isa][data]") {
-  auto const post = read_mesh(CELLRAY_SHARED_DATA "/vtk-data/post.vtk");
+  auto const post = read_mesh(test::real_file("vtk-data/post.vtk"));
   auto const lp = load(post.tet_mesh());
   fast_vs_reference({"post.vtk Pressure", lp->scene(), 0.355f, 1.641f, {0.9f}}, {0.005, 0.005, 0.005}, frame);
-  auto const disk = read_mesh(CELLRAY_SHARED_DATA "/vtk-data/disk_out_ref.vtu");
+  auto const disk = read_mesh(test::real_file("vtk-data/disk_out_ref.vtu"));
   auto const ld = load(disk.hex_mesh().with_array("Temp"));
   fast_vs_reference({"disk_out_ref.vtu Temp", ld->scene(), 293.f, 913.f, {600.f}}, {0.005, 0.005, 0.005}, frame);
 }

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -16,6 +17,7 @@
 #include <cellray/mesh/validate.hpp>
 #include <cellray/traverse/queries.hpp>
 
+#include "support/test_data.hpp"
 #include "support/test_isa.hpp"
 
 // One namespace per file: a stage's files compile as one unity TU
@@ -112,22 +114,27 @@ OracleResult compare(CellMesh<N> const& mesh, Probe const& probe, float range, T
 }  // namespace
 
 TEST_CASE("point sampling matches VTK's probe filter on real meshes", "[traverse][isa][oracle]") {
-  std::string const data = CELLRAY_SHARED_DATA;
+  // The probes and boxturb48 are in $CELLRAY_DATA_DIR only: a mesh whose
+  // files are missing there is left out and the test case reported skipped.
   struct Case {
     char const* mesh;
+    bool in_repo;  // tests/data/real has a copy
     char const* array;
     char const* probe;
     bool hex;
   } const cases[] = {
-      {"/vtk-data/post.vtk", "Pressure", "/oracle/post_Pressure.probe", false},
-      {"/openfoam/component8_heat_84k.vtk", "T", "/oracle/component8_heat_84k_T.probe", false},
-      {"/vtk-data/hexa.vtk", "scalars", "/oracle/hexa_scalars.probe", true},
-      {"/vtk-data/disk_out_ref.vtu", "Temp", "/oracle/disk_out_ref_Temp.probe", true},
-      {"/openfoam/boxturb48_dns.vtk", "enstrophy", "/oracle/boxturb48_dns_enstrophy.probe", true},
+      {"vtk-data/post.vtk", true, "Pressure", "oracle/post_Pressure.probe", false},
+      {"openfoam/component8_heat_84k.vtk", true, "T", "oracle/component8_heat_84k_T.probe", false},
+      {"vtk-data/hexa.vtk", true, "scalars", "oracle/hexa_scalars.probe", true},
+      {"vtk-data/disk_out_ref.vtu", true, "Temp", "oracle/disk_out_ref_Temp.probe", true},
+      {"openfoam/boxturb48_dns.vtk", false, "enstrophy", "oracle/boxturb48_dns_enstrophy.probe", true},
   };
   for (auto const& c : cases) {
-    UnstructuredGrid const grid = read_mesh(data + c.mesh);
-    Probe const probe = read_probe(data + c.probe);
+    auto const probe_path = test::shared_data_file(c.probe);
+    auto const mesh_path = c.in_repo ? std::optional<std::string>(test::real_file(c.mesh)) : test::shared_data_file(c.mesh);
+    if (!probe_path || !mesh_path) continue;
+    UnstructuredGrid const grid = read_mesh(*mesh_path);
+    Probe const probe = read_probe(*probe_path);
     for (Traversal how : {Traversal::packet, Traversal::spmd}) {
       OracleResult r;
       if (c.hex) {
