@@ -1,18 +1,24 @@
 #!/usr/bin/env bash
 # Runs a command and checks how it ends (used by the cellray-render ctests).
-# usage: expect.sh [--absent FILE] [--png FILE W H] [--skip-without-avx512]
+# usage: expect.sh [--absent FILE] [--png FILE W H] [--skip-without-avx512] [--needs REL]...
 #                  <exit-code> <regex|""> <command> [args...]
 #   exit-code  the code the command must exit with
 #   regex      extended regex the command's stdout+stderr must match ("any": no check)
 #   --absent   FILE must not exist afterwards (no image written on failure)
 #   --png      FILE must be a W x H PNG that is not one flat colour (checked
 #              by the program in $PNG_CHECK, tests/cli/png_check.cpp)
+#   --needs    REL, a file of the shared data set, must exist in the data
+#              directory ($CELLRAY_DATA_DIR, default ../shared/data beside
+#              the repository); if it does not, the test is skipped (exit 77,
+#              which the ctests treat as skipped). "{data}" in the command's
+#              arguments stands for that directory.
 # A failing command (non-zero exit expected) must print exactly one line on
 # stderr, starting "cellray-render: error:".
 set -u
-absent="" png="" skip_avx512=0
+absent="" png="" skip_avx512=0 needs=()
 while [ $# -gt 0 ]; do
   case "$1" in
+    --needs) needs+=("$2"); shift 2 ;;
     --absent) absent=$2; shift 2 ;;
     --png) png=("$2" "$3" "$4"); shift 4 ;;
     --skip-without-avx512) skip_avx512=1; shift ;;
@@ -25,6 +31,17 @@ if [ "$skip_avx512" = 1 ] && ! grep -qw avx512bw /proc/cpuinfo; then
   echo "this CPU lacks AVX-512: skipped"
   exit 77
 fi
+data_dir=${CELLRAY_DATA_DIR:-$(cd "$(dirname "$0")/../.." && pwd)/../shared/data}
+for rel in ${needs[@]+"${needs[@]}"}; do
+  if [ ! -f "$data_dir/$rel" ]; then
+    echo "skipped: $data_dir/$rel missing (set CELLRAY_DATA_DIR)"
+    exit 77
+  fi
+done
+placeholder='{data}'
+args=()
+for a in "$@"; do args+=("${a//"$placeholder"/$data_dir}"); done
+set -- "${args[@]}"
 for f in "$absent" "${png[0]:-}"; do [ -n "$f" ] && rm -f "$f"; done
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
