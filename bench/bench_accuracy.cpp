@@ -31,6 +31,8 @@
 #include <cellray/mesh/generate.hpp>
 #include <cellray/render/reference.hpp>
 
+#include "bench_data.hpp"
+
 using namespace cellray;
 
 namespace {
@@ -69,13 +71,11 @@ template <int N> void finish(Subject& s, CellMesh<N> const& m, float iso_at = 0.
   s.iso = s.vmin + iso_at * (s.vmax - s.vmin);
 }
 
-std::string data_dir() { return CELLRAY_SHARED_DATA; }
-
 std::unique_ptr<Subject> make_subject(std::string const& key) {
   auto s = std::make_unique<Subject>();
   s->name = key;
   auto read = [&](std::string const& rel) {
-    s->grid = std::make_unique<UnstructuredGrid>(read_mesh(data_dir() + "/" + rel));
+    s->grid = std::make_unique<UnstructuredGrid>(read_mesh(bench::data_file(rel)));
   };
   if (key == "gen-tets") {
     s->gen_tets = std::make_unique<GeneratedMesh<4>>(generate_tets(100000));

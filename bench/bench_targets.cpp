@@ -39,6 +39,8 @@
 #include <cellray/render/reference.hpp>
 #include <cellray/render/render.hpp>
 
+#include "bench_data.hpp"
+
 using namespace cellray;
 
 namespace {
@@ -81,13 +83,12 @@ template <class MeshT> void value_range(MeshT const& m, float& lo, float& hi) {
 std::unique_ptr<Subject> load(std::string const& name) {
   auto s = std::make_unique<Subject>();
   s->name = name;
-  std::string const data = CELLRAY_SHARED_DATA;
   if (name == "component8_608k") {
-    s->grid = std::make_unique<UnstructuredGrid>(read_mesh(data + "/openfoam/component8_heat_608k.vtk"));
+    s->grid = std::make_unique<UnstructuredGrid>(read_mesh(bench::data_file("openfoam/component8_heat_608k.vtk")));
     s->tets = s->grid->tet_mesh().with_array("T");
     s->iso = 423.f;
   } else if (name == "boxturb48_dns") {
-    s->grid = std::make_unique<UnstructuredGrid>(read_mesh(data + "/openfoam/boxturb48_dns.vtk"));
+    s->grid = std::make_unique<UnstructuredGrid>(read_mesh(bench::data_file("openfoam/boxturb48_dns.vtk")));
     s->hexes = s->grid->hex_mesh().with_array("enstrophy");
     s->hex = true;
     s->iso = 0.1f;

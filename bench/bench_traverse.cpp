@@ -8,9 +8,10 @@
 //   ./build/bench/bench_traverse --benchmark_filter='^(samples|dvr)/' --benchmark_min_time=0.2
 //
 // Meshes: generated tets/hexes (CELLRAY_BENCH_LARGE=1 adds 1M and 5M cells)
-// and two real ones from ../shared/data. Rays are 512x512 primary rays of the
-// fitted camera, ordered in pixel blocks matching the packet width; each
-// benchmark checks its answers against the SSE4.2 packet answers first.
+// and two real ones from $CELLRAY_DATA_DIR (default ../shared/data). Rays
+// are 512x512 primary rays of the fitted camera, ordered in pixel blocks
+// matching the packet width; each benchmark checks its answers against the
+// SSE4.2 packet answers first.
 
 #include <benchmark/benchmark.h>
 
@@ -35,6 +36,8 @@
 
 #include <glm/glm.hpp>
 #include <cellray/traverse/queries.hpp>
+
+#include "bench_data.hpp"
 
 using namespace cellray;
 
@@ -64,18 +67,17 @@ Loaded& mesh(std::string const& name) {
   if (it != c.end()) return *it->second;
   auto m = std::make_unique<Loaded>();
   m->name = name;
-  std::string const data = CELLRAY_SHARED_DATA;
   if (name == "gen_tets_100k") m->gt = generate_tets(100000), m->tets = m->gt.mesh(), m->iso = 0.45f;
   else if (name == "gen_tets_1M") m->gt = generate_tets(1000000), m->tets = m->gt.mesh(), m->iso = 0.45f;
   else if (name == "gen_tets_5M") m->gt = generate_tets(5000000), m->tets = m->gt.mesh(), m->iso = 0.45f;
   else if (name == "gen_hexes_100k") m->gh = generate_hexes(100000), m->hexes = m->gh.mesh(), m->hex = true, m->iso = 0.45f;
   else if (name == "gen_hexes_1M") m->gh = generate_hexes(1000000), m->hexes = m->gh.mesh(), m->hex = true, m->iso = 0.45f;
   else if (name == "component8_608k") {
-    m->grid = std::make_unique<UnstructuredGrid>(read_mesh(data + "/openfoam/component8_heat_608k.vtk"));
+    m->grid = std::make_unique<UnstructuredGrid>(read_mesh(bench::data_file("openfoam/component8_heat_608k.vtk")));
     m->tets = m->grid->tet_mesh().with_array("T");
     m->iso = 423.f;
   } else if (name == "boxturb48_110k") {
-    m->grid = std::make_unique<UnstructuredGrid>(read_mesh(data + "/openfoam/boxturb48_dns.vtk"));
+    m->grid = std::make_unique<UnstructuredGrid>(read_mesh(bench::data_file("openfoam/boxturb48_dns.vtk")));
     m->hexes = m->grid->hex_mesh().with_array("enstrophy");
     m->hex = true;
     m->iso = 0.1f;

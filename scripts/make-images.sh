@@ -3,20 +3,25 @@
 # cellray-render from a Release build in build/ (built here if missing).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# The meshes come from the shared data set: $CELLRAY_DATA_DIR, by default
+# ../shared/data beside the repository.
+d=${CELLRAY_DATA_DIR:-../shared/data}
+for f in openfoam/component8_heat_608k.vtk openfoam/boxturb48_dns.vtk vtk-data/disk_out_ref.vtu; do
+  [ -f "$d/$f" ] || { echo "make-images.sh: $d/$f missing: set CELLRAY_DATA_DIR to the shared data set" >&2; exit 1; }
+done
 ./scripts/install-deps.sh
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j"$(nproc)" --target cellray-render
 r=./build/examples/cellray-render
-d=../shared/data
 out=docs/images
 mkdir -p "$out"
 set -x
 $r --size 640x480 -o $out/default.png
-$r $d/openfoam/component8_heat_608k.vtk --array T --iso 330,423,520 --iso-opacity 0.35,0.6,1 \
+$r "$d"/openfoam/component8_heat_608k.vtk --array T --iso 330,423,520 --iso-opacity 0.35,0.6,1 \
    --shadows --size 640x480 -o $out/component8_iso_shadows.png
-$r $d/openfoam/boxturb48_dns.vtk --array enstrophy --iso 0.1,0.25 --iso-opacity 0.3,1 --ao 8 \
+$r "$d"/openfoam/boxturb48_dns.vtk --array enstrophy --iso 0.1,0.25 --iso-opacity 0.3,1 --ao 8 \
    --size 640x480 -o $out/boxturb_iso_ao.png
-$r $d/openfoam/component8_heat_608k.vtk --array T --mode dvr --tf inferno --size 640x480 \
+$r "$d"/openfoam/component8_heat_608k.vtk --array T --mode dvr --tf inferno --size 640x480 \
    -o $out/component8_dvr.png
-$r $d/vtk-data/disk_out_ref.vtu --array Temp --mode dvr --tf cool-warm --size 640x480 \
+$r "$d"/vtk-data/disk_out_ref.vtu --array Temp --mode dvr --tf cool-warm --size 640x480 \
    -o $out/disk_out_ref_dvr.png
