@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Sets up (Debian packages, Release build) and renders the built-in default
 # scene to out/default.png. Arguments go to cellray-render (see --help),
-# e.g. ./scripts/render.sh ../shared/data/vtk-data/post.vtk -o out/post.png
+# e.g. ./scripts/render.sh tests/data/real/vtk-data/post.vtk -o out/post.png
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install-deps.sh
