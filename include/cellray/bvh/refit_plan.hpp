@@ -224,7 +224,7 @@ inline RefitPlan make_plan(MinMaxBvh const& bvh, std::vector<MeshPiece> const& p
   return plan;
 }
 
-/// Range of a leaf whose distinct vertices include a NaN value: per cell, so
+/// Range of a leaf whose distinct vertices include a NaN or +-inf value: per cell, so
 /// a NaN cell drops out without dropping its neighbours' shared vertices.
 inline NodeRange leaf_range_per_cell(MinMaxBvh const& bvh, std::vector<MeshPiece> const& pieces,
                                      std::vector<uint64_t> const& voff, float const* values, Node const& n) {
@@ -235,7 +235,7 @@ inline NodeRange leaf_range_per_cell(MinMaxBvh const& bvh, std::vector<MeshPiece
     bool nan = false;
     for_corners(bvh, pieces, voff, bvh.item(s), [&](uint64_t v) {
       float const x = values[v];
-      nan = nan || std::isnan(x);
+      nan = nan || !std::isfinite(x);
       c.vmin = std::min(c.vmin, x);
       c.vmax = std::max(c.vmax, x);
     });
@@ -257,7 +257,7 @@ inline constexpr int refit_streams = 2;
 /// reset to empty after a leaf's last chunk, so nothing branches on the
 /// data; the blocks advance side by side so their dependency chains overlap.
 /// Each leaf's 4 lanes are then reduced into `ranges`. Returns bit s set
-/// when block b + s read a NaN value.
+/// when block b + s read a NaN or +-inf value.
 inline uint32_t fit_leaf_blocks(RefitPlan const& plan, float const* values, uint64_t b, uint64_t e,
                                 NodeRange* ranges) {
   constexpr int streams = refit_streams;
@@ -285,7 +285,8 @@ inline uint32_t fit_leaf_blocks(RefitPlan const& plan, float const* values, uint
     __m128 const x01 = _mm_unpacklo_ps(_mm_load_ss(values + q[0]), _mm_load_ss(values + q[1]));
     __m128 const x23 = _mm_unpacklo_ps(_mm_load_ss(values + q[2]), _mm_load_ss(values + (r3 & ~RefitPlan::last_bit)));
     __m128 const x = _mm_movelh_ps(x01, x23);
-    nan[s] = _mm_or_ps(nan[s], _mm_cmpunord_ps(x, x));
+    __m128 const zero_if_finite = _mm_sub_ps(x, x);  // NaN for NaN and +-inf
+    nan[s] = _mm_or_ps(nan[s], _mm_cmpunord_ps(zero_if_finite, zero_if_finite));
     lo[s] = _mm_min_ps(x, lo[s]);  // a NaN x keeps the accumulator (minps takes the second)
     hi[s] = _mm_max_ps(x, hi[s]);
     float* out = lanes.get() + (uint64_t(s) * lb + leaf[s]) * 8;
@@ -310,7 +311,7 @@ inline uint32_t fit_leaf_blocks(RefitPlan const& plan, float const* values, uint
     float* out = lanes.get() + (uint64_t(s) * lb + leaf[s]) * 8;
     for (int l = 0; l < 4; ++l) {
       float const x = values[q[l] & ~RefitPlan::last_bit];
-      nan[s] = nan[s] || x != x;
+      nan[s] = nan[s] || !std::isfinite(x);
       lo[s][l] = x < lo[s][l] ? x : lo[s][l];
       hi[s][l] = x > hi[s][l] ? x : hi[s][l];
       out[l] = lo[s][l], out[4 + l] = hi[s][l];
@@ -352,7 +353,7 @@ inline void fix_nan_leaves(MinMaxBvh const& bvh, RefitPlan const& plan, std::vec
   uint64_t leaf = 0;
   for (uint64_t k = plan.block_begin()[b]; k < ke; ++k) {
     float const x = values[ids[k] & ~RefitPlan::last_bit];
-    nan = nan || std::isnan(x);
+    nan = nan || !std::isfinite(x);
     if (ids[k] & RefitPlan::last_bit) {
       if (nan) {
         uint32_t const node = leaf_node[leaf];

@@ -148,7 +148,7 @@ template <int N> struct ScalarCorners {
   uint64_t v[N];
   float s[N];
   int32_t key[N];
-  float lo, hi;  ///< value range of the corners; NaN if any value is NaN
+  float lo, hi;  ///< value range of the corners; NaN if any value is NaN or +-inf (read as NaN)
 };
 
 /// Reads ids and values of `cell` (not yet ordered). No range check.
@@ -172,7 +172,7 @@ template <int N> CELLRAY_FORCE_INLINE void read_corner_values(CellMesh<N> const&
   float lo = std::numeric_limits<float>::infinity(), hi = -lo;
   bool nan = false;
   for (int i = 0; i < N; ++i) {
-    k.s[i] = val[k.v[i]];
+    k.s[i] = simd::finite_or_nan(val[k.v[i]]);
     nan = nan || !(k.s[i] == k.s[i]);
     lo = std::min(lo, k.s[i]);
     hi = std::max(hi, k.s[i]);
@@ -256,7 +256,7 @@ inline CellCorners<A, N> gather_corners(CellMesh<N> const& mesh, vint<A> const& 
       c.x[i] = simd::gather(xyz, v3);
       c.y[i] = simd::gather(xyz + 1, v3);
       c.z[i] = simd::gather(xyz + 2, v3);
-      c.s[i] = val ? simd::gather(val, v) : vfloat<A>(std::numeric_limits<float>::quiet_NaN());
+      c.s[i] = val ? simd::finite_or_nan(simd::gather(val, v)) : vfloat<A>(std::numeric_limits<float>::quiet_NaN());
       c.id[i] = v;
     }
     return c;
@@ -273,7 +273,7 @@ inline CellCorners<A, N> gather_corners(CellMesh<N> const& mesh, vint<A> const& 
       for (int i = 0; i < N; ++i) {
         uint64_t const v = vs[i];
         fx[i][l] = xyz[3 * v], fy[i][l] = xyz[3 * v + 1], fz[i][l] = xyz[3 * v + 2];
-        fs[i][l] = val ? val[v] : std::numeric_limits<float>::quiet_NaN();
+        fs[i][l] = val ? simd::finite_or_nan(val[v]) : std::numeric_limits<float>::quiet_NaN();
         ids[i][l] = key[i];
       }
     }

@@ -65,14 +65,16 @@ struct IsoRoot {
   int index = -1;
 };
 
-/// Cell `cell` of `mesh` in double (active array; NaN values if none).
+/// Cell `cell` of `mesh` in double (active array; NaN values if none, and
+/// for +-inf values: such a cell is invisible, as in the fast kernels).
 template <int N> inline Cell<N> load(CellMesh<N> const& mesh, uint64_t cell) {
   Cell<N> c;
   for (int i = 0; i < N; ++i) {
     uint64_t const v = mesh.vertex(cell, i);
     glm::vec3 const p = mesh.position(v);
     c.p[i] = dvec3(p);
-    c.s[i] = mesh.has_values() ? double(mesh.value(v)) : std::numeric_limits<double>::quiet_NaN();
+    double const s = mesh.has_values() ? double(mesh.value(v)) : std::numeric_limits<double>::quiet_NaN();
+    c.s[i] = std::isfinite(s) ? s : std::numeric_limits<double>::quiet_NaN();
     c.id[i] = v;
   }
   return c;

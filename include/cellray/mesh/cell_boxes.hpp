@@ -14,7 +14,7 @@ namespace cellray {
 /// Bounds and scalar range of one item (a cell). 32 bytes:
 ///   [ 0,12) lo    box min xyz      [12,16) vmin  smallest vertex value
 ///   [16,28) hi    box max xyz      [28,32) vmax  largest vertex value
-/// A cell with a NaN vertex value gets the empty range vmin = +inf,
+/// A cell with a NaN or +-inf vertex value gets the empty range vmin = +inf,
 /// vmax = -inf, so no isovalue or transfer-function range ever selects it.
 struct ItemBox {
   glm::vec3 lo;

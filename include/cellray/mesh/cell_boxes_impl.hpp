@@ -50,7 +50,7 @@ inline void boxes_and_ranges(CellMesh<N> const& mesh, uint64_t begin, uint64_t e
         }
         if (val) {
           vfloat<Arch> s = simd::gather(val, v);
-          has_nan = has_nan || simd::isnan(s);
+          has_nan = has_nan || simd::not_finite(s);
           vmin = simd::min(vmin, s);
           vmax = simd::max(vmax, s);
         } else {
@@ -92,7 +92,7 @@ inline void boxes_and_ranges(CellMesh<N> const& mesh, uint64_t begin, uint64_t e
       }
       if (val) {
         float s = val[v];
-        nan = nan || simd::isnan(s);
+        nan = nan || simd::not_finite(s);
         b.vmin = simd::min(b.vmin, s);
         b.vmax = simd::max(b.vmax, s);
       }

@@ -317,7 +317,7 @@ template <int N> inline bool cell_range(CellMesh<N> const& mesh, uint64_t cell, 
   lo = inf, hi = -inf;
   for (int k = 0; k < N; ++k) {
     float const v = mesh.value(mesh.vertex(cell, k));
-    if (!(v == v)) return false;
+    if (!std::isfinite(v)) return false;  // NaN and +-inf: an invisible cell
     lo = std::min(lo, double(v)), hi = std::max(hi, double(v));
   }
   return true;

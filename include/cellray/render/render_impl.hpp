@@ -478,13 +478,15 @@ inline void shade_batch(DvrShading const& sh, float inv_gradient_full, vfloat<A>
   vmask<A> const ok = len > zero && len < vfloat<A>(std::numeric_limits<float>::infinity());  // false for NaN
   if (simd::none(ok)) return;
   vfloat<A> const safe = simd::select(ok, len, one);
-  vfloat<A> const ndl = simd::min(one, simd::abs(gx * r.dx + gy * r.dy + gz * r.dz) / safe);
+  // Lanes that are not ok (a NaN cell's gradient, or a lane not integrating)
+  // keep their colour untouched: 0 * NaN would be NaN.
+  vfloat<A> const ndl = simd::select(ok, simd::min(one, simd::abs(gx * r.dx + gy * r.dy + gz * r.dz) / safe), zero);
   vfloat<A> const m = simd::select(ok, simd::min(one, len * vfloat<A>(inv_gradient_full)), zero);
   vfloat<A> const lit = vfloat<A>(sh.ambient) + vfloat<A>(sh.diffuse) * ndl;
   vfloat<A> const spec = vfloat<A>(sh.specular) * pow_batch<A>(ndl, sh.shininess);
-  cr = cr + m * (simd::min(one, cr * lit + spec) - cr);
-  cg = cg + m * (simd::min(one, cg * lit + spec) - cg);
-  cb = cb + m * (simd::min(one, cb * lit + spec) - cb);
+  cr = simd::select(ok, cr + m * (simd::min(one, cr * lit + spec) - cr), cr);
+  cg = simd::select(ok, cg + m * (simd::min(one, cg * lit + spec) - cg), cg);
+  cb = simd::select(ok, cb + m * (simd::min(one, cb * lit + spec) - cb), cb);
 }
 
 /// e^x per lane (xsimd's vector exp; std::exp for the scalar arch).

@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <type_traits>
 
 #include <immintrin.h>
@@ -225,6 +226,19 @@ template <class A> inline xsimd::batch<int32_t, A> gather(int32_t const* base, x
 inline bool isnan(float x) noexcept { return x != x; }
 // Not `x != x`: xsimd compiles != to an ordered compare on AVX (false for NaN).
 template <class A> inline xsimd::batch_bool<float, A> isnan(xsimd::batch<float, A> const& x) noexcept { return !(x == x); }
+
+/// NaN and +-inf: the scalar values that make a cell invisible (a field
+/// value of inf has no place in a transfer function or an isosurface).
+inline bool not_finite(float x) noexcept { return !(std::fabs(x) <= std::numeric_limits<float>::max()); }
+template <class A> inline xsimd::batch_bool<float, A> not_finite(xsimd::batch<float, A> const& x) noexcept {
+  return !(xsimd::abs(x) <= xsimd::batch<float, A>(std::numeric_limits<float>::max()));
+}
+/// `x`, or NaN where it is +-inf: corner values enter the kernels this way,
+/// so every NaN rule downstream covers inf too.
+inline float finite_or_nan(float x) noexcept { return not_finite(x) ? std::numeric_limits<float>::quiet_NaN() : x; }
+template <class A> inline xsimd::batch<float, A> finite_or_nan(xsimd::batch<float, A> const& x) noexcept {
+  return xsimd::select(not_finite(x), xsimd::batch<float, A>(std::numeric_limits<float>::quiet_NaN()), x);
+}
 
 }  // namespace simd
 }  // namespace CELLRAY_ISA_NS

@@ -200,7 +200,8 @@ template <class A> struct TetMarch {
     float const* val = mesh.values();
     vint<A> const v3 = fresh_id * vint<A>(3);
     vfloat<A> const fx = simd::gather(xyz, v3), fy = simd::gather(xyz + 1, v3), fz = simd::gather(xyz + 2, v3);
-    vfloat<A> const fs = val ? simd::gather(val, fresh_id) : vfloat<A>(std::numeric_limits<float>::quiet_NaN());
+    vfloat<A> const fs =
+        val ? simd::finite_or_nan(simd::gather(val, fresh_id)) : vfloat<A>(std::numeric_limits<float>::quiet_NaN());
     for (int i = 0; i < 4; ++i) {
       vmask<A> const mf = simd::to_float_mask(fresh[i]);
       c.x[i] = simd::select(mf, fx, c.x[i]), c.y[i] = simd::select(mf, fy, c.y[i]);
