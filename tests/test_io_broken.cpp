@@ -5,6 +5,9 @@
 
 #include <catch2/catch.hpp>
 
+#include <sys/resource.h>
+#include <sys/stat.h>
+
 #include <filesystem>
 #include <set>
 #include <string>
@@ -105,6 +108,13 @@ Expect const corpus[] = {
     {"appended_no_marker.vtu", ":16: ", "AppendedData must start with '_'"},
     {"appended_huge_header.vtu", ": byte 670: ", "1200000000 bytes declared"},
     {"binary_connectivity_size.vtu", ": byte 422: ", "the header says 24 bytes, expected 32"},
+    // Issue #24: a short POINT_DATA count is named where it is declared (it
+    // read "unknown keyword '4'" at the first value past the count), the
+    // declared type of ASCII connectivity (it said Float64), junk behind a
+    // zlib header (byte 700: where block 0's base64 starts).
+    {"point_data_short.vtk", ":14: ", "POINT_DATA declares 3 values for 4 points"},
+    {"float_connectivity.vtu", ":9: ", "connectivity is stored as Float32, not integers"},
+    {"zlib_junk_blocks.vtu", ": byte 700: ", "zlib block 0 of 64 does not inflate to 49152 bytes"},
 };
 
 std::string broken(char const* f) { return std::string(CELLRAY_TEST_DATA) + "/broken/" + f; }
@@ -129,6 +139,72 @@ TEST_CASE("every broken file raises IoError naming file, place and problem", "[i
     std::string const bytes = io::read_file_bytes(path);
     CHECK_THROWS_WITH(read_mesh_from_memory(bytes, e.file), std::string(e.file) + msg.substr(path.size()));
   }
+}
+
+/// Peak resident memory of this process so far, bytes (Linux: ru_maxrss in KiB).
+uint64_t peak_rss() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return uint64_t(u.ru_maxrss) * 1024;
+}
+
+TEST_CASE("a zlib header claiming 1 GiB over 1 MB of junk fails at block 0 without allocating the claim",
+          "[io][broken]") {
+  // 1024 blocks of 1032192 bytes (88M points) over 1024 x 1001 bytes of
+  // junk: within deflate's 1032:1, so only inflating can tell. The reader
+  // used to allocate (and zero) the whole claim first: 1 GB of RSS.
+  constexpr uint32_t nblocks = 1024, block = 1032192, csize = 1001;
+  std::string raw;
+  auto put32 = [&raw](uint32_t v) { raw.append(reinterpret_cast<char const*>(&v), 4); };
+  put32(nblocks), put32(block), put32(0);
+  for (uint32_t i = 0; i < nblocks; ++i) put32(csize);
+  std::string const header = raw;
+  std::string junk(size_t(nblocks) * csize, '\0');
+  for (size_t i = 0; i < junk.size(); ++i) junk[i] = char((i * 97 + 13) % 251);
+  auto b64 = [](std::string const& in) {
+    static char const* const abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    std::string out;
+    for (size_t i = 0; i < in.size(); i += 3) {
+      uint32_t n = uint32_t(uint8_t(in[i])) << 16;
+      if (i + 1 < in.size()) n |= uint32_t(uint8_t(in[i + 1])) << 8;
+      if (i + 2 < in.size()) n |= uint32_t(uint8_t(in[i + 2]));
+      out += abc[n >> 18 & 63], out += abc[n >> 12 & 63];
+      out += i + 1 < in.size() ? abc[n >> 6 & 63] : '=';
+      out += i + 2 < in.size() ? abc[n & 63] : '=';
+    }
+    return out;
+  };
+  std::string const vtu =
+      "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+      "header_type=\"UInt32\" compressor=\"vtkZLibDataCompressor\">\n<UnstructuredGrid>\n"
+      "<Piece NumberOfPoints=\"88080384\" NumberOfCells=\"1\">\n<Points>\n"
+      "<DataArray type=\"Float32\" NumberOfComponents=\"3\" format=\"binary\">" +
+      b64(header) + b64(junk) +
+      "</DataArray>\n</Points>\n<Cells>\n"
+      "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">0 1 2 3</DataArray>\n"
+      "<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">4</DataArray>\n"
+      "<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">10</DataArray>\n"
+      "</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
+  uint64_t const before = peak_rss();
+  CHECK_THROWS_WITH(read_mesh_from_memory(vtu, "bomb.vtu"),
+                    Catch::StartsWith("bomb.vtu: byte ") && Catch::Contains("zlib block 0 of 1024"));
+  uint64_t const grown = peak_rss() - before;
+  INFO("peak RSS grew by " << grown / (1 << 20) << " MiB");
+  CHECK(grown < (uint64_t(100) << 20));
+}
+
+TEST_CASE("FIFOs, directories and devices are refused before they are opened", "[io][broken]") {
+  std::string const dir = std::filesystem::temp_directory_path().string() + "/cellray_io_nonregular";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir + "/mesh.vtk");
+  REQUIRE(mkfifo((dir + "/fifo.vtu").c_str(), 0600) == 0);
+  // Opening the FIFO would block until a writer comes: none ever does.
+  CHECK_THROWS_WITH(read_mesh(dir + "/fifo.vtu"), Catch::Contains("fifo.vtu: is a FIFO"));
+  CHECK_THROWS_WITH(read_mesh(dir + "/mesh.vtk"), Catch::Contains("mesh.vtk: is a directory"));
+  CHECK_THROWS_WITH(read_mesh(dir + "/none.vtk"), Catch::Contains("none.vtk: cannot open file"));
+  std::filesystem::create_symlink("/dev/zero", dir + "/zero.vtk");
+  CHECK_THROWS_WITH(read_mesh(dir + "/zero.vtk"), Catch::Contains("zero.vtk: is a device"));
+  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("the broken corpus and its expectations list the same files", "[io][broken]") {

@@ -10,9 +10,11 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <new>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -43,8 +45,29 @@ struct Source {
   [[noreturn]] void fail_byte(uint64_t offset, std::string const& msg) const { throw IoError(at_byte(offset) + msg); }
 };
 
-/// The whole file in memory. @throws IoError naming the file when it cannot be read.
+/// Throws IoError unless `path` names a regular file (after symlinks): a
+/// directory fails later with an obscure message, and opening a FIFO or a
+/// terminal blocks until someone writes to it.
+inline void require_regular_file(std::string const& path, char const* what = "file") {
+  std::error_code ec;
+  auto const st = std::filesystem::status(path, ec);
+  if (ec || st.type() == std::filesystem::file_type::not_found)
+    throw IoError(path + ": cannot open " + what + " (" + (ec ? ec.message() : std::string("no such file")) + ")");
+  switch (st.type()) {
+    case std::filesystem::file_type::regular: return;
+    case std::filesystem::file_type::directory: throw IoError(path + ": is a directory, not a " + what);
+    case std::filesystem::file_type::fifo: throw IoError(path + ": is a FIFO (named pipe), not a regular " + what);
+    case std::filesystem::file_type::socket: throw IoError(path + ": is a socket, not a regular " + what);
+    case std::filesystem::file_type::character:
+    case std::filesystem::file_type::block: throw IoError(path + ": is a device, not a regular " + what);
+    default: throw IoError(path + ": is not a regular " + what);
+  }
+}
+
+/// The whole file in memory. @throws IoError naming the file when it cannot
+/// be read or is not a regular file (see require_regular_file).
 inline std::string read_file_bytes(std::string const& path) {
+  require_regular_file(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(path + ": cannot open file (" + std::generic_category().message(errno) + ")");
   in.seekg(0, std::ios::end);
@@ -54,6 +77,16 @@ inline std::string read_file_bytes(std::string const& path) {
   in.seekg(0, std::ios::beg);
   if (size > 0 && !in.read(bytes.data(), size)) throw IoError(path + ": read failed");
   return bytes;
+}
+
+/// Runs `read()`, turning an allocation failure into an IoError that names
+/// the file: "out of memory" alone leaves a user guessing which input.
+template <class Read> auto naming_out_of_memory(std::string const& name, Read&& read) -> decltype(read()) {
+  try {
+    return read();
+  } catch (std::bad_alloc const&) {
+    throw IoError(name + ": not enough memory to read it (the file declares more data than this machine can hold)");
+  }
 }
 
 inline std::string in_quotes(std::string_view s) { return "'" + std::string(s.substr(0, 80)) + (s.size() > 80 ? "...'" : "'"); }

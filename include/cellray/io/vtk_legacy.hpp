@@ -362,6 +362,12 @@ class LegacyParser {
   void section(std::string_view tok, uint64_t at) {
     bool const cell = iequals(tok, "CELL_DATA");
     uint64_t const n = expect_count(std::string(tok) + " count");
+    // Checked here, not only at the end: a short count would otherwise send
+    // the parser into the rest of the values as if they were keywords.
+    if (cell && have_cells_ && n != ncells_)
+      src_.fail_line(at, "CELL_DATA declares " + std::to_string(n) + " values for " + std::to_string(ncells_) + " cells");
+    if (!cell && have_points_ && n != npoints_)
+      src_.fail_line(at, "POINT_DATA declares " + std::to_string(n) + " values for " + std::to_string(npoints_) + " points");
     if (cell) {
       if (have_cell_data_) src_.fail_line(at, "a second CELL_DATA section");
       have_cell_data_ = true;
@@ -546,14 +552,14 @@ class LegacyParser {
 inline UnstructuredGrid read_vtk_legacy_from_memory(std::string_view bytes, std::string name_for_errors,
                                                     ReadOptions const& opts = {}) {
   io::Source const src{bytes, std::move(name_for_errors)};
-  return io::LegacyParser(src, opts).parse();
+  return io::naming_out_of_memory(src.name, [&] { return io::LegacyParser(src, opts).parse(); });
 }
 
 /// Reads a legacy VTK (".vtk") unstructured grid file, versions 1.0 to 5.1,
 /// ASCII or BINARY. See UnstructuredGrid for what is kept.
 /// @throws IoError as read_vtk_legacy_from_memory, or when the file cannot be read.
 inline UnstructuredGrid read_vtk_legacy(std::string const& path, ReadOptions const& opts = {}) {
-  std::string const bytes = io::read_file_bytes(path);
+  std::string const bytes = io::naming_out_of_memory(path, [&] { return io::read_file_bytes(path); });
   return read_vtk_legacy_from_memory(bytes, path, opts);
 }
 

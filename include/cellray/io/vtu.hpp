@@ -159,6 +159,60 @@ inline bool xml_type(std::string_view name, NumType& t) {
 /// is corrupt (and must not make us allocate).
 constexpr uint64_t zlib_max_ratio = 1032;
 
+/// Inflates the zlib stream [z, z + zsize) and appends exactly `want` bytes
+/// to `out`, growing it 1 MiB at a time as the stream produces them. Returns
+/// "" on success, else what went wrong (the stream is corrupt, ends early or
+/// holds more than `want` bytes); `out` may then hold part of the block.
+inline std::string inflate_append(unsigned char const* z, uint64_t zsize, uint64_t want, std::vector<unsigned char>& out) {
+  constexpr uint64_t grow = uint64_t(1) << 20;
+  constexpr uint64_t max_feed = std::numeric_limits<uInt>::max();
+  z_stream zs{};
+  if (inflateInit(&zs) != Z_OK) return "zlib cannot start";
+  uint64_t in_left = zsize, produced = 0;
+  std::string err;
+  for (;;) {
+    if (zs.avail_in == 0 && in_left > 0) {
+      uint64_t const feed = std::min(in_left, max_feed);
+      zs.next_in = const_cast<Bytef*>(z + (zsize - in_left));
+      zs.avail_in = uInt(feed);
+      in_left -= feed;
+    }
+    unsigned char spare = 0;
+    uint64_t const room = std::min(grow, want - produced);
+    size_t const at = out.size();
+    if (room > 0) {
+      out.resize(at + size_t(room));
+      zs.next_out = out.data() + at;
+      zs.avail_out = uInt(room);
+    } else {  // all bytes are in: the stream must end here
+      zs.next_out = &spare;
+      zs.avail_out = 1;
+    }
+    int const rc = inflate(&zs, Z_NO_FLUSH);
+    uint64_t const got = (room > 0 ? room : 1) - zs.avail_out;
+    if (room > 0) out.resize(at + size_t(got));
+    if (room == 0 && got > 0) {
+      err = "it holds more";
+      break;
+    }
+    produced += got;
+    if (rc == Z_STREAM_END) {
+      if (produced != want) err = "got " + std::to_string(produced);
+      break;
+    }
+    if (rc == Z_BUF_ERROR && zs.avail_in == 0 && in_left == 0) {
+      err = "the data ends after " + std::to_string(produced) + " bytes";
+      break;
+    }
+    if (rc != Z_OK && rc != Z_BUF_ERROR) {
+      err = zs.msg ? zs.msg : zError(rc);
+      break;
+    }
+  }
+  inflateEnd(&zs);
+  return err;
+}
+
 /// Parser state for one .vtu document. Internal: use read_vtu*().
 class VtuParser {
  public:
@@ -221,8 +275,14 @@ class VtuParser {
     pugi::xml_node const cells = piece.child("Cells");
     if (!cells) src_.fail_line(offset(piece), "no Cells element");
     pugi::xml_node const conn_el = named(cells, "connectivity"), off_el = named(cells, "offsets"), type_el = named(cells, "types");
+    // Checked on the declared type: ASCII data is decoded to Int64 or Float64,
+    // which would name the wrong type.
+    for (auto const& [el, what] : {std::pair(off_el, "offsets"), std::pair(conn_el, "connectivity"), std::pair(type_el, "types")}) {
+      NumType t{};
+      if (el && xml_type(el.attribute("type").value(), t) && !is_integer(t))
+        src_.fail_line(offset(el), std::string(what) + " is stored as " + num_name(t) + ", not integers");
+    }
     NumArray const offsets = decode(off_el, nc, "offsets");
-    if (!is_integer(offsets.type)) src_.fail_line(offset(off_el), "offsets must be integers");
     // VTU offsets are end offsets: cell c uses [offsets[c-1], offsets[c]).
     int64_t prev = 0;
     for (uint64_t c = 0; c < nc; ++c) {
@@ -439,8 +499,10 @@ class VtuParser {
     if (total > zlib_max_ratio * ctotal + 64 * nblocks)
       src_.fail_byte(start, what + ": " + std::to_string(total) + " bytes cannot come from " + std::to_string(ctotal) +
                                 " compressed bytes (corrupt header)");
-    std::vector<unsigned char> out(total), tmp;
-    uint64_t at = 0;
+    // The output grows only as blocks inflate: a header's claim allocates
+    // nothing until compressed data backs it (VTK's header is not a promise).
+    std::vector<unsigned char> out, tmp;
+    out.reserve(size_t(std::min(total, 8 * ctotal + (uint64_t(1) << 20))));
     for (uint64_t i = 0; i < nblocks; ++i) {
       uint64_t const here = s.offset();
       unsigned char const* z;
@@ -452,13 +514,10 @@ class VtuParser {
         z = s.raw(csize[i]);
       }
       uint64_t const want = i + 1 == nblocks ? last_size : block;
-      uLongf got = uLongf(want);
-      int const rc = uncompress(out.data() + at, &got, z, uLong(csize[i]));
-      if (rc != Z_OK || got != want)
+      std::string const err = inflate_append(z, csize[i], want, out);
+      if (!err.empty())
         src_.fail_byte(here, what + ": zlib block " + std::to_string(i) + " of " + std::to_string(nblocks) +
-                                 " does not inflate to " + std::to_string(want) + " bytes (" +
-                                 (rc == Z_OK ? "got " + std::to_string(got) : std::string(zError(rc))) + ")");
-      at += want;
+                                 " does not inflate to " + std::to_string(want) + " bytes (" + err + ")");
     }
     return NumArray::owning_bytes(t, total / esize, std::move(out), swap_);
   }
@@ -497,13 +556,13 @@ class VtuParser {
 inline UnstructuredGrid read_vtu_from_memory(std::string_view bytes, std::string name_for_errors,
                                              ReadOptions const& opts = {}) {
   io::Source const src{bytes, std::move(name_for_errors)};
-  return io::VtuParser(src, opts).parse();
+  return io::naming_out_of_memory(src.name, [&] { return io::VtuParser(src, opts).parse(); });
 }
 
 /// Reads a VTK XML unstructured grid file (".vtu"). See UnstructuredGrid.
 /// @throws IoError as read_vtu_from_memory, or when the file cannot be read.
 inline UnstructuredGrid read_vtu(std::string const& path, ReadOptions const& opts = {}) {
-  std::string const bytes = io::read_file_bytes(path);
+  std::string const bytes = io::naming_out_of_memory(path, [&] { return io::read_file_bytes(path); });
   return read_vtu_from_memory(bytes, path, opts);
 }
 

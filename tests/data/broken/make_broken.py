@@ -187,4 +187,14 @@ put("appended_huge_header.vtu", vtu(piece(app_da("Points", "Float32", 0, 3), C_O
 put("binary_connectivity_size.vtu", vtu(piece(P_OK, b64_da("connectivity", "Int64",
                                                             base64.b64encode(struct.pack("<I", 24) + struct.pack("<3q", 0, 1, 2)).decode()),
                                               O_OK, T_OK)))
+# Issue #24: counts and types found where they are declared, and a zlib
+# header whose claim no data backs (inflated block by block, nothing allocated
+# for the claim).
+put("point_data_short.vtk", HEAD + PTS + TET + "POINT_DATA 3\nSCALARS s float\nLOOKUP_TABLE default\n1 2 3 4\n")
+put("float_connectivity.vtu", vtu(piece(P_OK, ascii_da("connectivity", "Float32", "0 1 2 3"), O_OK, T_OK)))
+junk_blocks = bytes((i * 97 + 13) % 251 for i in range(60))  # not a zlib stream
+hdr_junk = struct.pack("<3I", 64, 49152, 0) + struct.pack("<I", len(junk_blocks)) * 64
+put("zlib_junk_blocks.vtu", vtu(piece(b64_da("Points", "Float32", base64.b64encode(hdr_junk).decode() +
+                                             base64.b64encode(junk_blocks * 64).decode(), 3),
+                                      C_OK, O_OK, T_OK).replace('NumberOfPoints="4"', 'NumberOfPoints="262144"'), ZATTR))
 print("wrote", len([f for f in os.listdir(HERE) if f.endswith((".vtk", ".vtu"))]), "files")
