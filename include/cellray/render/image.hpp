@@ -21,11 +21,14 @@ struct Image {
   float* pixel(int x, int y) { return rgba.data() + (size_t(y) * size_t(width) + size_t(x)) * 4; }
   float const* pixel(int x, int y) const { return rgba.data() + (size_t(y) * size_t(width) + size_t(x)) * 4; }
 
-  /// 8-bit RGBA, each channel round(clamp(c, 0, 1) * 255).
+  /// 8-bit RGBA, each channel round(clamp(c, 0, 1) * 255); a NaN channel
+  /// (a renderer bug: none is expected) becomes 0, never undefined behaviour.
   std::vector<uint8_t> to_rgba8() const {
     std::vector<uint8_t> out(rgba.size());
-    for (size_t i = 0; i < rgba.size(); ++i)
-      out[i] = uint8_t(std::clamp(rgba[i], 0.f, 1.f) * 255.f + 0.5f);
+    for (size_t i = 0; i < rgba.size(); ++i) {
+      float const c = rgba[i] > 0.f ? std::min(rgba[i], 1.f) : 0.f;
+      out[i] = uint8_t(c * 255.f + 0.5f);
+    }
     return out;
   }
 };
