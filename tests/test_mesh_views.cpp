@@ -104,14 +104,15 @@ TEST_CASE("generated meshes are conforming, positively oriented and carry the an
 
 TEST_CASE("validate names bad indices, non-finite data, flat and inverted cells", "[mesh]") {
   float const nan = std::numeric_limits<float>::quiet_NaN();
-  std::vector<float> xyz = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 0, nan, 0, 0};
-  std::vector<float> val = {0, 1, 2, nan, 4, 5};
+  std::vector<float> xyz = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 0, nan, 0, 0, 0, nan, 0};
+  std::vector<float> val = {0, 1, 2, nan, 4, 5, 5};
   std::vector<uint32_t> idx = {
       0, 1, 2, 3,  // fine
       0, 2, 1, 3,  // inverted
       0, 1, 2, 4,  // flat (4 lies in the plane of 0, 1, 2)
       0, 1, 2, 9,  // index out of range
       0, 1, 2, 9,  // again (count 2, first 3)
+      0, 1, 3, 5,  // uses vertex 5, whose position is NaN (vertex 6's is too, but no cell uses it)
   };
   TetMesh m{view(xyz), view(idx), view(val)};
   auto rep = validate(m);
@@ -120,11 +121,13 @@ TEST_CASE("validate names bad indices, non-finite data, flat and inverted cells"
   CHECK(rep.bad_index.first == 3);
   CHECK(rep.nonfinite_position.count == 1);
   CHECK(rep.nonfinite_position.first == 5);
+  CHECK(rep.unused_nonfinite_position.count == 1);
+  CHECK(rep.unused_nonfinite_position.first == 6);
   CHECK(rep.nonfinite_value.count == 1);
   CHECK(rep.nonfinite_value.first == 3);
   CHECK(rep.inverted.count == 1);
   CHECK(rep.inverted.first == 1);
-  CHECK(rep.zero_volume.count == 1);
+  CHECK(rep.zero_volume.count == 2);  // cell 2, and cell 5 (its NaN corner has no volume)
   CHECK(rep.zero_volume.first == 2);
   CHECK(rep.value_min == 0.f);
   CHECK(rep.value_max == 5.f);

@@ -103,19 +103,27 @@ void run(Bytes& in, uint8_t flags, uint8_t tuning, uint64_t nv, uint64_t nc, flo
   cellray::CellMesh<N> const mesh{cellray::view(xyz), cellray::view(cells), cellray::view(values), "f"};
 
   cellray::ValidationReport const rep = cellray::validate(mesh);
-  uint64_t bad_cells = 0, bad_positions = 0, bad_values = 0;  // brute-force oracle
+  uint64_t bad_cells = 0, bad_positions = 0, unused_bad_positions = 0, bad_values = 0;  // brute-force oracle
+  std::vector<bool> used(nv, false);
   for (uint64_t c = 0; c < nc; ++c) {
     bool bad = false;
-    for (int k = 0; k < N; ++k) bad = bad || uint64_t(cells[c * N + uint64_t(k)]) >= nv;
+    for (int k = 0; k < N; ++k) {
+      uint64_t const v = uint64_t(cells[c * N + uint64_t(k)]);
+      bad = bad || v >= nv;
+      if (v < nv) used[v] = true;
+    }
     bad_cells += bad;
   }
   for (uint64_t v = 0; v < nv; ++v) {
-    bad_positions += !(std::isfinite(xyz[3 * v]) && std::isfinite(xyz[3 * v + 1]) && std::isfinite(xyz[3 * v + 2]));
+    bool const finite = std::isfinite(xyz[3 * v]) && std::isfinite(xyz[3 * v + 1]) && std::isfinite(xyz[3 * v + 2]);
+    (used[v] ? bad_positions : unused_bad_positions) += !finite;
     bad_values += !std::isfinite(values[v]);
   }
   require(rep.cells == nc && rep.vertices == nv, "report counts");
   require(rep.bad_index.count == bad_cells, "bad index count differs from brute force");
   require(rep.nonfinite_position.count == bad_positions, "non-finite position count differs from brute force");
+  require(rep.unused_nonfinite_position.count == unused_bad_positions,
+          "unused non-finite position count differs from brute force");
   require(rep.nonfinite_value.count == bad_values, "non-finite value count differs from brute force");
   require(rep.ok() == (bad_cells == 0 && bad_positions == 0), "ok() differs from brute force");
   (void)rep.message();

@@ -13,6 +13,7 @@
 #include <ostream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
@@ -44,7 +45,8 @@ struct ValidationReport {
   CellType cell_type = CellType::tet;
   uint64_t cells = 0, vertices = 0;
   Finding bad_index;           ///< error: a cell names a vertex id >= vertex count (cell ids)
-  Finding nonfinite_position;  ///< error: NaN or inf coordinate (vertex ids)
+  Finding nonfinite_position;  ///< error: NaN or inf coordinate of a vertex a cell uses (vertex ids)
+  Finding unused_nonfinite_position;  ///< warning: NaN or inf coordinate of a vertex no cell uses (ignored)
   Finding nonfinite_value;     ///< warning: NaN or inf in the active array (vertex ids)
   Finding zero_volume;         ///< warning: flat or collapsed cells (cell ids)
   Finding inverted;            ///< warning: negative orientation (cell ids)
@@ -53,7 +55,9 @@ struct ValidationReport {
 
   /// False when rendering must not proceed.
   bool ok() const { return !bad_index && !nonfinite_position; }
-  bool has_warnings() const { return bool(nonfinite_value) || bool(zero_volume) || bool(inverted); }
+  bool has_warnings() const {
+    return bool(nonfinite_value) || bool(zero_volume) || bool(inverted) || bool(unused_nonfinite_position);
+  }
 
   std::string message() const {
     std::ostringstream s;
@@ -65,6 +69,7 @@ struct ValidationReport {
     };
     line(bad_index, "error", "cells with a vertex index out of range", "cell");
     line(nonfinite_position, "error", "vertices with a non-finite position", "vertex");
+    line(unused_nonfinite_position, "warning", "vertices no cell uses with a non-finite position (ignored)", "vertex");
     line(nonfinite_value, "warning", "vertices with a non-finite value (their cells are invisible)", "vertex");
     line(zero_volume, "warning", "cells of zero volume (never hit)", "cell");
     line(inverted, "warning", "inverted cells", "cell");
@@ -130,6 +135,18 @@ template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
         return a;
       });
   rep.nonfinite_position = vpart.pos;
+  if (vpart.pos) {
+    // Rare: split them into vertices a cell uses (an error) and the rest
+    // (files keep unused points; nothing reads them). Serial, only here.
+    std::vector<uint8_t> used(nv, 0);
+    for (uint64_t c = 0; c < mesh.cell_count(); ++c)
+      for (int k = 0; k < N; ++k)
+        if (uint64_t const v = mesh.vertex(c, k); v < nv) used[v] = 1;
+    rep.nonfinite_position = {};
+    for (uint64_t v = 0; v < nv; ++v)
+      if (!std::isfinite(xyz[3 * v]) || !std::isfinite(xyz[3 * v + 1]) || !std::isfinite(xyz[3 * v + 2]))
+        (used[v] ? rep.nonfinite_position : rep.unused_nonfinite_position).add(v);
+  }
   rep.nonfinite_value = vpart.value;
   rep.value_min = vpart.lo;
   rep.value_max = vpart.hi;

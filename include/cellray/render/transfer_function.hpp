@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -82,7 +83,11 @@ inline TransferFunction transfer_function_preset(std::string_view name, float vm
   else
     throw InvalidArgument("unknown transfer function preset '" + std::string(name) +
                           "' (presets: cool-warm, viridis, inferno, grayscale)");
-  if (!(vmax > vmin)) vmax = vmin + 1.f;
+  if (!(vmax > vmin)) {  // a constant field: a span that does not vanish in rounding (+1 does near 1e8)
+    float const pad = std::max(1.f, std::fabs(vmin) * 1e-5f);
+    if (vmin < std::numeric_limits<float>::max() - pad) vmax = vmin + pad;
+    else vmin = vmax - pad;
+  }
   TransferFunction tf;
   auto alpha = [&](float t) { return t <= 2.f / 3.f ? 0.f : max_alpha * (t - 2.f / 3.f) * 3.f; };
   std::vector<float> ts;
@@ -97,7 +102,7 @@ inline TransferFunction transfer_function_preset(std::string_view name, float vm
       float const u = (t - a.t) / (it->t - a.t);
       c = {t, a.r + u * (it->r - a.r), a.g + u * (it->g - a.g), a.b + u * (it->b - a.b)};
     }
-    tf.values.push_back(vmin + t * (vmax - vmin));
+    tf.values.push_back(float(double(vmin) + double(t) * (double(vmax) - double(vmin))));  // no overflow near +-3e38
     tf.rgba.emplace_back(c.r, c.g, c.b, alpha(t));
   }
   return tf;
