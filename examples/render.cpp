@@ -6,6 +6,8 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <csignal>
+
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
@@ -49,6 +51,27 @@ enum ExitCode { exit_ok = 0, exit_other = 1, exit_usage = 2, exit_io = 3, exit_i
 struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
+
+/// A name from the command line or a file, shortened for messages (a 100 KB
+/// --array name must not become a 100 KB error line).
+std::string shown(std::string const& name) { return name.size() <= 80 ? name : name.substr(0, 77) + "..."; }
+
+/// CLI11's PositiveNumber prints its range as 309 digits; this says it plainly.
+CLI::Validator const positive_finite(
+    [](std::string& text) -> std::string {
+      char* end = nullptr;
+      double const v = std::strtod(text.c_str(), &end);
+      if (text.empty() || *end != '\0' || !(v > 0.0) || !(v <= double(std::numeric_limits<float>::max())))
+        return "must be a positive finite number, got '" + shown(text) + "'";
+      return "";
+    },
+    "POSITIVE");
+
+std::string gib(double bytes) {
+  char s[32];
+  std::snprintf(s, sizeof s, "%.1f GiB", bytes / double(uint64_t(1) << 30));
+  return s;
+}
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
@@ -151,8 +174,8 @@ template <class T> T lerp_at(std::vector<float> const& x, std::vector<T> const& 
 /// Maps knots from their own range onto [lo, hi] (ParaView's default when a
 /// preset is applied: "use preset range" off).
 void rescale(std::vector<float>& x, float lo, float hi) {
-  float const a = x.front(), b = x.back();
-  for (float& v : x) v = b > a ? lo + (v - a) / (b - a) * (hi - lo) : lo;
+  double const a = x.front(), b = x.back();  // double: hi - lo overflows float near +-3e38
+  for (float& v : x) v = b > a ? float(lo + (v - a) / (b - a) * (double(hi) - lo)) : lo;
 }
 
 /// Reads a colour map saved by ParaView ("Save preset": a JSON list of
@@ -332,8 +355,10 @@ struct Options {
 
 constexpr char const* exit_code_help =
     "Exit codes: 0 success; 1 other error; 2 usage (unknown flag, bad value, unknown array);\n"
-    "3 I/O (mesh or transfer function file missing, unreadable or malformed; image not writable);\n"
-    "4 invalid mesh (fails validation, no cells, no point arrays).\n"
+    "3 I/O (mesh or transfer function file missing, not a regular file, unreadable or malformed -- cells\n"
+    "naming points the file lacks, unsupported cells; image not writable: the old image is kept);\n"
+    "4 invalid mesh (fails validation: a non-finite position of a vertex a cell uses; no cells, no point arrays,\n"
+    "no finite value).\n"
     "Negative numbers as values work directly (--eye -2,1,3) or with '=' (--eye=-2,1,3).";
 
 void add_options(CLI::App& app, Options& o) {
@@ -373,11 +398,11 @@ void add_options(CLI::App& app, Options& o) {
       ->check(CLI::Range(0.f, 1.f));
   app.add_option("--unit-distance", o.unit_distance,
                  "DVR opacity unit distance, world units (default: scene diagonal / 10)")
-      ->check(CLI::PositiveNumber);
+      ->check(positive_finite);
   app.add_option("--step", o.step,
                  "DVR step, world units: sample spacing, or the longest integration piece of a cell segment "
                  "(default: scene diagonal / 250 for segments, / 500 for samples)")
-      ->check(CLI::PositiveNumber);
+      ->check(positive_finite);
   app.add_option("--dvr-mode", o.dvr_mode,
                  "DVR by exact cell segments (default: faster and more accurate, docs/accuracy.md) or point samples")
       ->check(CLI::IsMember({"samples", "segments"}))
@@ -447,7 +472,7 @@ struct Loaded {
 
 std::string list_names(std::vector<std::string> const& names) {
   std::string s;
-  for (auto const& n : names) s += (s.empty() ? "" : ", ") + n;
+  for (auto const& n : names) s += (s.empty() ? "" : ", ") + shown(n);
   return s.empty() ? "none" : s;
 }
 
@@ -493,7 +518,7 @@ void load(Options const& o, Loaded& l) {
     if (!g.cell_array(o.cell_to_point)) {
       std::vector<std::string> names;
       for (auto const& a : g.cell_arrays) names.push_back(a.name);
-      throw UsageError("--cell-to-point: " + l.name + " has no cell array '" + o.cell_to_point +
+      throw UsageError("--cell-to-point: " + l.name + " has no cell array '" + shown(o.cell_to_point) +
                        "' (cell arrays: " + list_names(names) + ")");
     }
     // A file may hold a point and a cell array of one name (OpenFOAM's T).
@@ -512,11 +537,11 @@ void load(Options const& o, Loaded& l) {
 std::string select_array(Loaded const& l, std::string const& wanted, char const* flag) {
   auto const names = point_array_names(l);
   if (std::find(names.begin(), names.end(), wanted) != names.end()) return wanted;
-  std::string msg = std::string(flag) + ": " + l.name + " has no point array '" + wanted + "' (point arrays: " +
+  std::string msg = std::string(flag) + ": " + l.name + " has no point array '" + shown(wanted) + "' (point arrays: " +
                     list_names(names) + ")";
   auto const cells = cell_array_names(l);
   if (std::find(cells.begin(), cells.end(), wanted) != cells.end())
-    msg += "; '" + wanted + "' is a cell array: use --cell-to-point " + wanted;
+    msg += "; '" + shown(wanted) + "' is a cell array: use --cell-to-point " + shown(wanted);
   throw UsageError(msg);
 }
 
@@ -555,12 +580,115 @@ double peak_rss_mb() {
   return double(u.ru_maxrss) / 1024.0;  // Linux: KiB
 }
 
-bool ends_with(std::string const& s, char const* ext) {
-  std::string const e(ext);
-  if (s.size() < e.size()) return false;
-  for (size_t i = 0; i < e.size(); ++i)
-    if (std::tolower(static_cast<unsigned char>(s[s.size() - e.size() + i])) != e[i]) return false;
-  return true;
+/// Where -o would fail, found before any work: a missing or read-only
+/// folder, a directory or device in the file's place (exit 3).
+void check_output_path(std::string const& out) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  auto const st = fs::status(out, ec);
+  if (st.type() == fs::file_type::directory) throw IoError("-o: " + shown(out) + " is a directory");
+  if (!ec && st.type() != fs::file_type::not_found && st.type() != fs::file_type::regular)
+    throw IoError("-o: " + shown(out) + " is not a regular file (a device, FIFO or socket)");
+  fs::path target(out);
+  if (fs::is_symlink(fs::symlink_status(target, ec))) target = fs::weakly_canonical(target, ec);
+  fs::path const dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  if (!fs::is_directory(dir, ec))
+    throw IoError("-o: " + shown(out) + ": the directory " + shown(dir.string()) + " does not exist");
+  if (::access(dir.c_str(), W_OK) != 0)
+    throw IoError("-o: " + shown(out) + ": cannot write in the directory " + shown(dir.string()) + " (" +
+                  std::strerror(errno) + ")");
+}
+
+bool is_tf_preset(std::string const& name) {
+  return name == "cool-warm" || name == "viridis" || name == "inferno" || name == "grayscale";
+}
+
+/// --tf names a file when one exists by that name, or when it looks like a
+/// path (a folder or a .json ending): a missing file is then an I/O error
+/// (exit 3), not an unknown preset (exit 2).
+bool tf_names_file(std::string const& tf) {
+  std::error_code ec;
+  if (std::filesystem::symlink_status(tf, ec).type() != std::filesystem::file_type::not_found && !ec) return true;
+  if (is_tf_preset(tf)) return false;
+  return tf.find('/') != std::string::npos ||
+         (tf.size() >= 5 && io::iequals(std::string_view(tf).substr(tf.size() - 5), ".json"));
+}
+
+/// The same for a point array's values, when they are so large that their
+/// differences, or gradients squared, overflow float (values near 1e38):
+/// v -> (v - centre) * scale, scale a power of two. Isovalues and a colour
+/// map's own values (--tf-file-range) are mapped alike; messages show data
+/// units. Affine in the value, so the picture does not change.
+struct ValueFrame {
+  double centre = 0.0, scale = 1.0;
+  bool moved = false;
+
+  float to_render(float v) const { return moved ? float((double(v) - centre) * scale) : v; }
+  double to_data(float v) const { return moved ? double(v) / scale + centre : double(v); }
+};
+
+ValueFrame fit_values(std::vector<float>& values) {
+  ValueFrame f;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (float v : values)
+    if (std::isfinite(v)) lo = std::min(lo, double(v)), hi = std::max(hi, double(v));
+  if (!(lo <= hi) || std::max(std::fabs(lo), std::fabs(hi)) <= 0x1p+40) return f;
+  f.moved = true;
+  f.centre = 0.5 * (lo + hi);
+  double const reach = std::max(hi - f.centre, 1e-300);
+  f.scale = std::ldexp(1.0, -std::ilogb(reach));  // max |v - centre| -> [1, 2)
+  for (float& v : values)
+    if (std::isfinite(v)) v = float((double(v) - f.centre) * f.scale);
+  return f;
+}
+
+/// A similarity transform of a file mesh's coordinates, applied before
+/// anything sees them when float ray tracing could not use them as they are:
+/// far from the origin for their size (UTM-like offsets: the kernels'
+/// plane equations would cancel) or an extent near float's limits (products
+/// of edge lengths overflow or underflow). Centre at the bounds' centre,
+/// computed in double; scale a power of two, so scaling itself is exact.
+/// Camera flags and world lengths (--eye, --at, --step, --unit-distance) are
+/// mapped the same way, so the picture is the one the file describes.
+struct Frame {
+  glm::dvec3 centre{0.0};
+  double scale = 1.0;
+  bool moved = false;
+
+  glm::vec3 point(glm::vec3 const& w) const { return glm::vec3((glm::dvec3(w) - centre) * scale); }
+  float length(float w) const { return float(double(w) * scale); }
+  double world_length(float f) const { return double(f) / scale; }
+};
+
+Frame fit_frame(UnstructuredGrid& g) {
+  Frame f;
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  glm::dvec3 lo(inf), hi(-inf);
+  auto grow = [&](std::vector<uint32_t> const& ids) {
+    for (uint32_t v : ids)
+      for (int k = 0; k < 3; ++k) {
+        double const x = g.xyz[3 * size_t(v) + size_t(k)];
+        if (std::isfinite(x)) lo[k] = std::min(lo[k], x), hi[k] = std::max(hi[k], x);
+      }
+  };
+  grow(g.tets);
+  grow(g.hexes);
+  if (!(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z)) return f;  // validation names the problem
+  double const extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+  double const reach = std::max({std::fabs(lo.x), std::fabs(lo.y), std::fabs(lo.z), std::fabs(hi.x), std::fabs(hi.y),
+                                 std::fabs(hi.z)});
+  if (!(extent > 0.0)) return f;
+  bool const fits = extent >= 0x1p-20 && extent <= 0x1p+20 && reach <= 0x1p+8 * extent;
+  if (fits) return f;
+  f.moved = true;
+  f.centre = 0.5 * (lo + hi);
+  f.scale = std::ldexp(1.0, -std::ilogb(extent));  // extent -> [1, 2)
+  for (size_t v = 0; v < g.xyz.size() / 3; ++v)
+    for (int k = 0; k < 3; ++k) {
+      float& x = g.xyz[3 * v + size_t(k)];
+      if (std::isfinite(x)) x = float((double(x) - f.centre[k]) * f.scale);
+    }
+  return f;
 }
 
 int run(Options const& o) {
@@ -569,13 +697,26 @@ int run(Options const& o) {
   // Everything checkable before any work is checked first.
   int width = 0, height = 0;
   parse_size(o.size, width, height);
-  if (!ends_with(o.out, ".png") && !ends_with(o.out, ".ppm"))
-    throw UsageError("-o: '" + o.out + "' must end in .png or .ppm");
   {
-    auto const dir = std::filesystem::path(o.out).parent_path();
-    if (!dir.empty() && !std::filesystem::is_directory(dir))
-      throw IoError("-o: " + o.out + ": the directory " + dir.string() + " does not exist");
+    // The float image, its 8-bit copy and the encoded file: about 24 bytes a
+    // pixel. Linux overcommits, so a size past RAM would fail mid-render.
+    double const pixels = double(width) * double(height);
+    if (pixels > 0x1p+28)
+      throw UsageError("--size " + o.size + ": " + std::to_string(uint64_t(pixels)) +
+                       " pixels, more than 2^28; render larger images in tiles through the library (render_tile)");
+    double const need = 24.0 * pixels;
+    double const ram = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
+    if (ram > 0 && need > ram)
+      throw UsageError("--size " + o.size + ": the image needs " + gib(need) + " of buffers, more than this machine's " +
+                       gib(ram));
   }
+  if (image_format(o.out).empty()) throw UsageError("-o: '" + shown(o.out) + "' must end in .png or .ppm");
+  check_output_path(o.out);
+  bool const tf_file = o.mode == "dvr" && tf_names_file(o.tf);
+  if (tf_file) io::require_regular_file(o.tf, "transfer function file");
+  if (o.mode == "dvr" && !tf_file && !is_tf_preset(o.tf))
+    throw UsageError("--tf: unknown transfer function preset '" + shown(o.tf) +
+                     "' (presets: cool-warm, viridis, inferno, grayscale) and no file of that name");
   if (o.leaf_size < 1 || o.leaf_size > int(Node::max_leaf_items))
     throw UsageError("--leaf-size: must be in [1, " + std::to_string(Node::max_leaf_items) + "]");
   Isa isa = default_isa();
@@ -621,6 +762,10 @@ int run(Options const& o) {
     load(o, l);
     load_ms = ph.finish();
   }
+  Frame const frame = l.grid ? fit_frame(*l.grid) : Frame{};
+  if (frame.moved && (o.verbose || o.info))
+    std::cerr << "cellray-render: coordinates moved by -(" << frame.centre.x << ", " << frame.centre.y << ", "
+              << frame.centre.z << ") and scaled by " << frame.scale << " for float ray tracing\n";
   if (l.grid && (o.verbose || o.info)) std::cerr << l.grid->report.summary() << "\n";
   if (l.grid && l.grid->report.skipped_count() && !o.verbose && !o.info)
     std::cerr << "cellray-render: note: skipped " << l.grid->report.skipped_count() << " unsupported cells\n";
@@ -639,6 +784,14 @@ int run(Options const& o) {
   std::string build_array = names.front();
   if (!o.cell_to_point.empty()) build_array = l.grid->point_arrays.back().name;
   if (!o.array.empty()) build_array = select_array(l, o.array, "--array");
+  ValueFrame vframe;
+  auto fit_array = [&](std::string const& name) {
+    if (l.grid)
+      for (auto& a : l.grid->point_arrays)
+        if (a.name == name) return fit_values(a.values);
+    return ValueFrame{};
+  };
+  vframe = fit_array(build_array);
   set_active(l.tets, build_array);
   set_active(l.hexes, build_array);
 
@@ -673,6 +826,7 @@ int run(Options const& o) {
                        std::to_string(names.size()) + " point arrays (" + list_names(names) + "), steps 0 to " +
                        std::to_string(names.size() - 1));
     array = names[size_t(o.time_step)];
+    if (array != build_array) vframe = fit_array(array);
     set_active(l.tets, array);
     set_active(l.hexes, array);
     vlo = std::numeric_limits<float>::infinity();
@@ -708,12 +862,12 @@ int run(Options const& o) {
   glm::vec3 lo, hi;
   scene.bounds(lo, hi);
   // The default scene's blobs sit well inside its cube: frame the middle.
-  float const frame = o.mesh_path.empty() ? 0.75f : 1.f;
+  float const framing = o.mesh_path.empty() ? 0.75f : 1.f;
   glm::vec3 const centre = 0.5f * (lo + hi);
-  Camera cam = fit_camera(centre + frame * (lo - centre), centre + frame * (hi - centre), width, height, o.fov);
+  Camera cam = fit_camera(centre + framing * (lo - centre), centre + framing * (hi - centre), width, height, o.fov);
   if (eye || at || up)
-    cam = Camera::look_at(eye.value_or(cam.eye), at.value_or(centre), up.value_or(glm::vec3(0.f, 1.f, 0.f)),
-                          o.fov, width, height);
+    cam = Camera::look_at(eye ? frame.point(*eye) : cam.eye, at ? frame.point(*at) : centre,
+                          up.value_or(glm::vec3(0.f, 1.f, 0.f)), o.fov, width, height);
   float const diagonal = glm::length(hi - lo);
 
   RenderOptions ro;
@@ -731,7 +885,18 @@ int run(Options const& o) {
     if (isovalues.empty() && o.mesh_path.empty())
       isovalues = {0.3f, 0.45f, 0.6f};  // nested, none cut by the cube (analytic_field)
     else if (isovalues.empty())
-      for (float t : {0.25f, 0.5f, 0.75f}) isovalues.push_back(vlo + t * (vhi - vlo));
+      for (double t : {0.25, 0.5, 0.75}) isovalues.push_back(float(vlo + t * (double(vhi) - vlo)));  // no overflow
+    else
+      for (float& v : isovalues) v = vframe.to_render(v);
+    if (vlo == vhi)
+      std::cerr << "cellray-render: warning: point array '" << shown(array) << "' is constant ("
+                << vframe.to_data(vlo) << "): it has no isosurface\n";
+    else
+      for (float v : isovalues)
+        if (!(v >= vlo && v <= vhi))
+          std::cerr << "cellray-render: warning: isovalue " << vframe.to_data(v) << " lies outside the values of '"
+                    << shown(array) << "' [" << vframe.to_data(vlo) << ", " << vframe.to_data(vhi)
+                    << "]: it draws nothing\n";
     if (!iso_opacity.empty() && iso_opacity.size() != 1 && iso_opacity.size() != isovalues.size())
       throw UsageError("--iso-opacity: give one opacity or one per isovalue (" + std::to_string(isovalues.size()) + ")");
     for (size_t i = 0; i < isovalues.size(); ++i) {
@@ -756,25 +921,32 @@ int run(Options const& o) {
     if (background) ip.background = *background;
   } else {
     float const max_alpha = o.opacity >= 0.f ? o.opacity : 0.8f;
-    if (std::filesystem::exists(o.tf))
+    if (vlo == vhi)
+      std::cerr << "cellray-render: warning: point array '" << shown(array) << "' is constant ("
+                << vframe.to_data(vlo) << "): the volume is one uniform colour\n";
+    if (tf_file) {
       dp.tf = read_paraview_tf(o.tf, vlo, vhi, max_alpha, o.opacity >= 0.f ? o.opacity : 1.f, o.tf_file_range);
-    else {
-      try {
-        dp.tf = transfer_function_preset(o.tf, vlo, vhi, max_alpha);
-      } catch (InvalidArgument const& e) {
-        throw UsageError(std::string("--tf: ") + e.what() + " and no file '" + o.tf + "'");
+      if (o.tf_file_range && vframe.moved) {
+        for (float& v : dp.tf.values) v = vframe.to_render(v);
+        try {
+          dp.tf.check();
+        } catch (InvalidArgument const& e) {
+          throw IoError(o.tf + ": " + e.what() + " (in the scaled value range of '" + shown(array) + "')");
+        }
       }
+    } else {
+      dp.tf = transfer_function_preset(o.tf, vlo, vhi, max_alpha);
       // The presets hide the lower two thirds of the range, which leaves
       // little of most real fields; ParaView's default linear ramp shows the
       // structure. Exact: the knots include both ends, alpha is linear between.
-      float const span = vhi > vlo ? vhi - vlo : 1.f;
+      double const span = vhi > vlo ? double(vhi) - vlo : 1.0;
       for (size_t i = 0; i < dp.tf.values.size(); ++i)
-        dp.tf.rgba[i].a = max_alpha * std::clamp((dp.tf.values[i] - vlo) / span, 0.f, 1.f);
+        dp.tf.rgba[i].a = max_alpha * float(std::clamp((dp.tf.values[i] - double(vlo)) / span, 0.0, 1.0));
     }
     // Opacity accumulates per unit distance: a tenth of the diagonal keeps a
     // mesh's look independent of its units.
-    dp.tf.unit_distance = o.unit_distance > 0.f ? o.unit_distance : std::max(diagonal / 10.f, 1e-30f);
-    dp.step = o.step;
+    dp.tf.unit_distance = o.unit_distance > 0.f ? frame.length(o.unit_distance) : std::max(diagonal / 10.f, 1e-30f);
+    dp.step = frame.length(o.step);
     dp.group_size = o.group_size;
     dp.mode = o.dvr_mode == "segments" ? DvrMode::segments : DvrMode::samples;
     dp.empty_space_skipping = !o.no_skip;
@@ -789,13 +961,18 @@ int run(Options const& o) {
   {
     Phase ph(progress, "rendering " + std::to_string(width) + "x" + std::to_string(height) +
                            (o.frames > 1 ? " " + std::to_string(o.frames) + " times" : std::string()));
-    for (int f = 0; f < o.frames; ++f) {
-      auto const t0 = Clock::now();
-      if (o.reference)
-        image = o.mode == "iso" ? render_iso_reference(scene, cam, ip) : render_dvr_reference(scene, cam, dp);
-      else
-        image = o.mode == "iso" ? render_iso(scene, cam, ip, ro) : render_dvr(scene, cam, dp, ro);
-      times.push_back(ms_since(t0));
+    try {
+      for (int f = 0; f < o.frames; ++f) {
+        auto const t0 = Clock::now();
+        if (o.reference)
+          image = o.mode == "iso" ? render_iso_reference(scene, cam, ip) : render_dvr_reference(scene, cam, dp);
+        else
+          image = o.mode == "iso" ? render_iso(scene, cam, ip, ro) : render_dvr(scene, cam, dp, ro);
+        times.push_back(ms_since(t0));
+      }
+    } catch (std::bad_alloc const&) {
+      throw Error("out of memory rendering " + std::to_string(width) + "x" + std::to_string(height) + " (" +
+                  gib(16.0 * double(width) * double(height)) + " for the float image alone; try a smaller --size)");
     }
   }
   if (image.width != width || image.height != height)
@@ -812,7 +989,7 @@ int run(Options const& o) {
     j["mode"] = o.mode;
     if (o.mode == "dvr") {
       j["dvr_mode"] = o.dvr_mode;
-      j["dvr_step"] = dp.step > 0.f ? dp.step : default_dvr_step(dp.mode, diagonal);
+      j["dvr_step"] = frame.world_length(dp.step > 0.f ? dp.step : default_dvr_step(dp.mode, diagonal));
       j["dvr_shading"] = o.dvr_shading;
     }
     j["array"] = array;
@@ -851,6 +1028,10 @@ void report_error(std::string const& msg) { std::cerr << "cellray-render: error:
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Past a file-size limit, write() then fails with EFBIG and the image
+  // writer reports it (exit 3, the old file kept) instead of the process
+  // dying half-way through a file.
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{
       "cellray-render: ray traces isosurfaces or a volume (DVR) of an unstructured tet/hex mesh\n"
       "(legacy .vtk or .vtu) to PNG or PPM; without a mesh, renders a generated scene."};

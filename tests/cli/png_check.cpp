@@ -2,6 +2,9 @@
 // which at least `min_fraction` (default 0.02) of the pixels differ from the
 // top-left one (the background), i.e. something was drawn; else prints why
 // and exits 1. Reads the file with stb_image, independently of the writer.
+// png_check --compare A B MAX_PIXELS [LEVELS]: exits 0 when PNGs A and B have
+// one size and at most MAX_PIXELS pixels differ by more than LEVELS (default
+// 8) of 255 in some channel.
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -15,7 +18,37 @@
 #include <stb/stb_image.h>
 #pragma GCC diagnostic pop
 
+int compare(char const* a_path, char const* b_path, long max_pixels, int levels) {
+  int aw = 0, ah = 0, bw = 0, bh = 0, c = 0;
+  unsigned char* a = stbi_load(a_path, &aw, &ah, &c, 4);
+  unsigned char* b = stbi_load(b_path, &bw, &bh, &c, 4);
+  int rc = 0;
+  if (!a || !b) {
+    std::printf("cannot decode %s\n", !a ? a_path : b_path);
+    rc = 1;
+  } else if (aw != bw || ah != bh) {
+    std::printf("%s is %dx%d, %s is %dx%d\n", a_path, aw, ah, b_path, bw, bh);
+    rc = 1;
+  } else {
+    long differ = 0;
+    for (long i = 0; i < long(aw) * ah; ++i)
+      for (int k = 0; k < 4; ++k)
+        if (std::abs(int(a[4 * i + k]) - int(b[4 * i + k])) > levels) {
+          ++differ;
+          break;
+        }
+    std::printf("%s vs %s: %ld of %ld pixels differ by more than %d/255 (at most %ld allowed)\n", a_path, b_path, differ,
+                long(aw) * ah, levels, max_pixels);
+    rc = differ > max_pixels;
+  }
+  if (a) stbi_image_free(a);
+  if (b) stbi_image_free(b);
+  return rc;
+}
+
 int main(int argc, char** argv) {
+  if (argc >= 5 && std::strcmp(argv[1], "--compare") == 0)
+    return compare(argv[2], argv[3], std::atol(argv[4]), argc > 5 ? std::atoi(argv[5]) : 8);
   if (argc < 4) {
     std::fprintf(stderr, "usage: png_check FILE W H [min_fraction]\n");
     return 2;
