@@ -39,6 +39,6 @@ run() {
   fi
   grep -E "^stat::number_of_executed_units|^stat::peak_rss_mb" "$build/$h.log" || true
 }
-run fuzz_vtk_legacy vtk tests/data/broken/*.vtk "$real/tetraMesh.vtk" "$real/post.vtk"
+run fuzz_vtk_legacy vtk tests/data/broken/*.vtk tests/cli/data/block*.vtk "$real/tetraMesh.vtk" "$real/post.vtk"
 run fuzz_vtu vtu tests/data/broken/*.vtu "$real/Tetrahedron.vtu" "$real/disk_out_ref.vtu"
 run fuzz_validate validate
