@@ -265,9 +265,13 @@ TransferFunction read_paraview_tf(std::string const& path, float vmin, float vma
 /// Prints "cellray-render: <what>..." on stderr when a phase is still
 /// running after one second, and the time it took when it ends. Does nothing
 /// when disabled (stderr not a terminal and no --progress).
+/// The phase running last, for an out-of-memory message that says where.
+std::string current_phase;
+
 class Phase {
  public:
   Phase(bool enabled, std::string what) : what_(std::move(what)), t0_(Clock::now()) {
+    current_phase = what_;
     if (enabled) watcher_ = std::thread([this] { watch(); });
   }
   Phase(Phase const&) = delete;
@@ -1066,7 +1070,7 @@ int main(int argc, char** argv) {
     report_error(e.what());
     return exit_invalid_mesh;
   } catch (std::bad_alloc const&) {
-    report_error("out of memory");
+    report_error("out of memory" + (current_phase.empty() ? std::string() : " while " + current_phase));
     return exit_other;
   } catch (std::exception const& e) {
     report_error(e.what());

@@ -80,3 +80,8 @@ cli_test("an isovalue outside the values renders with a warning" 0 [=[warning: i
   ${render} ${hostile}/block.vtk --iso 9,1 --size 32x24 -o ${out}/outside.png)
 cli_test("a NaN position on a vertex no cell uses is a warning, not an error" --png ${out}/unused.png 64 48
   0 [=[no cell uses]=] ${render} ${hostile}/block_nan_unused_vertex.vtk -v --size 64x48 -o ${out}/unused.png)
+# Exit 1: out of memory, saying in which phase (not under ASan, which
+# reserves terabytes of address space).
+cli_script("out of memory exits 1 naming the phase" "
+  $E 1 'error: out of memory while (generating|building|rendering)' sh -c 'ulimit -v 250000; exec $R --cells 8000000 --size 64x48 -o $O/oom.png'")
+set_tests_properties("cli: out of memory exits 1 naming the phase" PROPERTIES LABELS no-sanitizer)
