@@ -134,6 +134,7 @@ struct Part {
 struct Setup {
   std::vector<Part> parts;
   double diagonal = 1;
+  PreparedClip clip;  ///< the render's clip region (clip.hpp): the planes as the fast path has them
 };
 
 inline Setup prepare(Scene const& scene) {
@@ -410,6 +411,34 @@ inline float hash01(uint32_t a, uint32_t b) {
   return float(h >> 8) * (1.f / 16777216.f);
 }
 
+/// The field at `q` in the first cell (of any part) that holds it, by exact
+/// point location; false outside the mesh and in NaN cells.
+inline bool value_at(Setup const& s, dvec3 const& q, double& v) {
+  ref::Ray const r{q, dvec3(1, 0, 0)};
+  bool found = false;
+  for (Part const& part : s.parts) {
+    auto run = [&](auto const& mesh) {
+      visit_cells(part.tree, r, 0.0, 0.0, [](float, float) { return true; }, [&](uint64_t cell) {
+        if (found) return;
+        ref::Location const L = ref::locate(ref::load(mesh, cell), q);
+        if (L.inside && std::isfinite(L.value)) v = L.value, found = true;
+      });
+    };
+    if (part.tets) run(*part.tets);
+    else run(*part.hexes);
+    if (found) return true;
+  }
+  return false;
+}
+
+/// Where a ray from a point inside the clip region leaves it (at most t1).
+inline double clip_exit(Setup const& s, dvec3 const& o, dvec3 const& d, double t1) {
+  double t0 = 0;
+  int entry;
+  clip_span(s.clip, o, d, t0, t1, entry);
+  return t1;
+}
+
 inline void iso_pixel(Setup const& s, Camera const& cam, IsoParams const& p, ReferenceOptions const& o, int x, int y,
                       float* out) {
   ref::Ray const r = camera_ray(cam, x, y);
@@ -417,10 +446,30 @@ inline void iso_pixel(Setup const& s, Camera const& cam, IsoParams const& p, Ref
   double const ao_radius = p.ao_radius > 0.f ? double(p.ao_radius) : 0.05 * s.diagonal;
   bool const headlight = !(glm::length(p.light_dir) > 0.f);
   dvec3 const light = headlight ? dvec3(0) : glm::normalize(dvec3(p.light_dir));
+  auto background = [&](dvec3 const& color, double alpha) {
+    dvec3 const c = color + (1 - alpha) * double(p.background.a) * dvec3(p.background);
+    out[0] = float(c.x), out[1] = float(c.y), out[2] = float(c.z);
+    out[3] = float(alpha + (1 - alpha) * double(p.background.a));
+  };
+  double t0 = 0, t1 = inf;
+  int entry = -1;
+  clip_span(s.clip, r.o, r.d, t0, t1, entry);
+  if (!(t0 <= t1)) return background(dvec3(0), 0);
+  double cap_value = 0;
+  if (p.clip.caps && entry >= 0 && value_at(s, r.o + t0 * r.d, cap_value)) {
+    dvec3 const n(s.clip.nx[entry], s.clip.ny[entry], s.clip.nz[entry]);
+    dvec3 const to_l = headlight ? -r.d : light;
+    double const ndl = std::max(0.0, glm::dot(n, to_l));
+    double const ndh = std::max(0.0, glm::dot(n, glm::normalize(to_l - r.d)));
+    double const spec = ndl > 0 ? double(p.specular) * std::pow(ndh, double(p.shininess)) : 0.0;
+    glm::vec4 const cc = p.clip.cap_colors.values.empty() ? glm::vec4(0.75f) : p.clip.cap_colors(float(cap_value));
+    dvec3 const c = glm::min(dvec3(cc) * (double(p.ambient) + double(p.diffuse) * ndl) + spec, 1.0);
+    return background(c, 1);
+  }
   std::vector<Crossing> all, scratch;
-  iso_crossings(s, r, 0.0, inf, p, o, all);
+  iso_crossings(s, r, t0, t1, p, o, all);
   dvec3 color(0);
-  double alpha = 0, tmin = 0;
+  double alpha = 0, tmin = t0;
   size_t next = 0;
   for (int layer = 0; layer < 16; ++layer) {
     while (next < all.size() && all[next].t < tmin) ++next;
@@ -434,7 +483,8 @@ inline void iso_pixel(Setup const& s, Camera const& cam, IsoParams const& p, Ref
     if (p.shadows) {
       ref::Ray const sr{pos + eps * n, ldir};
       Crossing sh{};
-      if (first_crossing(s, sr, eps, inf, p, o, scratch, sh)) visibility = 1 - double(p.surfaces[size_t(sh.iso)].opacity);
+      if (first_crossing(s, sr, eps, std::max(eps, clip_exit(s, sr.o, sr.d, inf)), p, o, scratch, sh))
+        visibility = 1 - double(p.surfaces[size_t(sh.iso)].opacity);
     }
     for (int k = 0; k < p.ao_samples; ++k) {
       uint32_t const pix = uint32_t(y) * uint32_t(cam.width) + uint32_t(x);
@@ -444,7 +494,8 @@ inline void iso_pixel(Setup const& s, Camera const& cam, IsoParams const& p, Ref
       dvec3 const tx = glm::normalize(glm::cross(a, n)), ty = glm::cross(n, tx);
       dvec3 const d = rr * std::cos(phi) * tx + rr * std::sin(phi) * ty + std::sqrt(std::max(0.0, 1 - u1)) * n;
       Crossing ah{};
-      if (first_crossing(s, ref::Ray{pos + eps * n, d}, eps, ao_radius, p, o, scratch, ah))
+      ref::Ray const ar{pos + eps * n, d};
+      if (first_crossing(s, ar, eps, std::max(eps, clip_exit(s, ar.o, ar.d, ao_radius)), p, o, scratch, ah))
         occlusion += 1.0 / p.ao_samples;
     }
     dvec3 const v = -r.d;
@@ -459,9 +510,7 @@ inline void iso_pixel(Setup const& s, Camera const& cam, IsoParams const& p, Ref
     if (alpha >= 0.99) break;
     tmin = hit.t + std::max(eps, 1e-5 * hit.t);
   }
-  dvec3 const c = color + (1 - alpha) * double(p.background.a) * dvec3(p.background);
-  out[0] = float(c.x), out[1] = float(c.y), out[2] = float(c.z);
-  out[3] = float(alpha + (1 - alpha) * double(p.background.a));
+  background(color, alpha);
 }
 
 // ---------------------------------------------------------------------- DVR
@@ -641,10 +690,13 @@ inline void dvr_pixel(Setup const& s, Camera const& cam, DvrParams const& p, Ref
   // contributes nothing (the field in a cell lies within its corner range).
   auto keep = [&](float vmin, float vmax) { return vmin <= vmax && p.tf.max_alpha(vmin, vmax) > 0.f; };
   segs.clear();
-  for (size_t pi = 0; pi < s.parts.size(); ++pi) {
+  double t0 = 0, t1 = inf;
+  int entry = -1;
+  clip_span(s.clip, r.o, r.d, t0, t1, entry);
+  for (size_t pi = 0; pi < s.parts.size() && t0 < t1; ++pi) {
     Part const& part = s.parts[pi];
     auto run = [&](auto const& mesh) {
-      visit_cells(part.tree, r, 0.0, inf, keep, [&](uint64_t cell) {
+      visit_cells(part.tree, r, t0, t1, keep, [&](uint64_t cell) {
         double lo, hi;
         if (!cell_range(mesh, cell, lo, hi) || !(p.tf.max_alpha(float(lo), float(hi)) > 0.f)) return;
         ref::Clip const k = ref::clip(ref::load(mesh, cell), r);
@@ -660,11 +712,11 @@ inline void dvr_pixel(Setup const& s, Camera const& cam, DvrParams const& p, Ref
   Accum acc;
   acc.stop_T = 1 - double(p.termination);
   double const tol = o.dvr_tolerance / s.diagonal;
-  double prev = 0;
+  double prev = t0;
   std::vector<double> cuts;
   for (Segment const& sg : segs) {
     if (acc.done()) break;
-    double const a = std::max(sg.t_in, prev), b = sg.t_out;
+    double const a = std::max(sg.t_in, prev), b = std::min(sg.t_out, t1);
     if (!(b > a)) continue;
     prev = b;
     Part const& part = s.parts[size_t(sg.part)];
@@ -755,7 +807,8 @@ inline Image render_iso_reference(Scene const& scene, Camera const& cam, IsoPara
                                   ReferenceOptions const& o) {
   render_detail::check_camera(cam);
   render_detail::check_iso(p);
-  ref_render::Setup const s = ref_render::prepare(scene);
+  ref_render::Setup s = ref_render::prepare(scene);
+  s.clip = PreparedClip::from(p.clip);
   Image img(cam.width, cam.height);
   ref_render::for_tiles(cam, o.tile_size, [&](int x0, int y0, int x1, int y1) {
     for (int y = y0; y < y1; ++y)
@@ -770,7 +823,8 @@ inline Image render_dvr_reference(Scene const& scene, Camera const& cam, DvrPara
   render_detail::DvrSetup checked;  // the fast path's parameter checks
   render_detail::prepare_dvr(scene, p, checked);
   if (!(o.dvr_tolerance > 0)) throw InvalidArgument("reference DVR tolerance must be positive");
-  ref_render::Setup const s = ref_render::prepare(scene);
+  ref_render::Setup s = ref_render::prepare(scene);
+  s.clip = PreparedClip::from(p.clip);
   Image img(cam.width, cam.height);
   ref_render::for_tiles(cam, o.tile_size, [&](int x0, int y0, int x1, int y1) {
     std::vector<ref_render::Segment> segs;

@@ -22,6 +22,7 @@
 #include "../mesh/neighbours.hpp"
 #include "../traverse/ray.hpp"
 #include "camera.hpp"
+#include "clip.hpp"
 #include "image.hpp"
 #include "render_common.hpp"
 #include "transfer_function.hpp"
@@ -88,6 +89,9 @@ struct IsoParams {
   float ao_radius = 0.f;  ///< world units; 0: 5% of the scene diagonal
   float ambient = 0.2f, diffuse = 0.7f, specular = 0.25f, shininess = 40.f;
   glm::vec4 background{1.f, 1.f, 1.f, 1.f};
+  /// Clip planes or box: rays start where they enter the kept region, and
+  /// shadow and AO rays end where they leave it; optional caps (clip.hpp).
+  Clip clip;
 };
 
 /// How DVR finds values along a ray.
@@ -149,6 +153,9 @@ struct DvrParams {
   float termination = 0.99f;         ///< stop a ray at this accumulated opacity
   glm::vec4 background{1.f, 1.f, 1.f, 1.f};
   DvrShading shading;  ///< off by default
+  /// Clip planes or box: each ray integrates only the part inside the kept
+  /// region (clip.hpp; caps do not apply: the volume starts at the cut).
+  Clip clip;
 };
 
 /// What a shadow or ambient-occlusion ray asks of the tree.

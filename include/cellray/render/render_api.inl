@@ -92,6 +92,14 @@ inline void check_iso(IsoParams const& p) {
   if (p.ao_samples < 0 || p.ao_samples > 1024) throw InvalidArgument("ambient occlusion samples must be in 0..1024");
   if (p.roots.method == CellIsoMethod::neubauer && (p.roots.neubauer_steps < 0 || p.roots.neubauer_steps > 64))
     throw InvalidArgument("Neubauer steps must be in 0..64");
+  p.clip.check();
+}
+
+/// The scene and the clip of an isosurface render.
+inline PreparedScene prepare_iso(Scene const& scene, IsoParams const& p) {
+  PreparedScene s = prepare(scene);
+  s.clip = PreparedClip::from(p.clip);
+  return s;
 }
 
 /// Values where the transfer function's opacity is not zero, as merged
@@ -178,7 +186,10 @@ inline void prepare_dvr(Scene const& scene, DvrParams const& p, DvrSetup& out) {
   if (p.group_size < 1 || p.group_size > max_sample_group)
     throw InvalidArgument("sample group size " + std::to_string(p.group_size) + " outside 1..32");
   if (!(p.termination > 0.f && p.termination <= 1.f)) throw InvalidArgument("termination opacity must be in (0, 1]");
+  p.clip.check();
   out.scene = prepare(scene);
+  out.scene.clip = PreparedClip::from(p.clip);
+  out.scene.clip.caps = false;  // the volume starts at the cut
   float const step = p.step > 0.f ? p.step : default_dvr_step(p.mode, out.scene.diagonal);
   if (!std::isfinite(step) || !(step > 0.f)) throw InvalidArgument("DVR step must be positive and finite");
   if (out.scene.diagonal / step > 1e7f) throw InvalidArgument("DVR step too small for the scene (over 10^7 samples per ray)");
@@ -194,7 +205,7 @@ inline void prepare_dvr(Scene const& scene, DvrParams const& p, DvrSetup& out) {
 inline Image render_iso(Scene const& scene, Camera const& cam, IsoParams const& p, RenderOptions const& o) {
   render_detail::check_camera(cam);
   render_detail::check_iso(p);
-  PreparedScene const s = render_detail::prepare(scene);
+  PreparedScene const s = render_detail::prepare_iso(scene, p);
   Image img(cam.width, cam.height);
   render_detail::for_tiles(cam, o.tile_size, [&](Tile const& t) { dispatch<RenderTileEntry>(o.isa, s, cam, p, o, t, img); });
   return img;
@@ -217,7 +228,7 @@ inline void render_tile(Scene const& scene, Camera const& cam, IsoParams const& 
   render_detail::check_tile(cam, tile);
   render_detail::check_iso(p);
   if (out.width != cam.width || out.height != cam.height) throw InvalidArgument("image size differs from the camera's");
-  PreparedScene const s = render_detail::prepare(scene);
+  PreparedScene const s = render_detail::prepare_iso(scene, p);
   dispatch<RenderTileEntry>(o.isa, s, cam, p, o, tile, out);
 }
 

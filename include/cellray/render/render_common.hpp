@@ -12,6 +12,7 @@
 #include "../mesh/neighbours.hpp"
 #include "../traverse/sample.hpp"
 #include "../traverse/tree_view.hpp"
+#include "clip.hpp"
 #include "transfer_function.hpp"
 
 namespace cellray {
@@ -42,6 +43,7 @@ struct PreparedScene {
   ValueWindows windows;        ///< DVR: values with nonzero opacity (everything without skipping)
   PreparedTf const* tf = nullptr;
   float inv_gradient_full = 0.f;  ///< DVR shading: 1 / DvrShading::gradient_full after defaults
+  PreparedClip clip;              ///< the region kept (no planes: everything)
 };
 
 }  // namespace cellray

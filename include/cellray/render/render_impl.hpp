@@ -165,6 +165,74 @@ template <size_t W> inline glm::vec3 lane_vec(std::array<float, W> const (&v)[3]
   return {v[0][size_t(l)], v[1][size_t(l)], v[2][size_t(l)]};
 }
 
+/// The part [t0, t1] of each lane's ray inside the clip region (clip.hpp),
+/// narrowed from the given [t0, t1]; `entry`: the plane a ray enters through
+/// at t0 (-1: t0 was not moved). Empty where t0 > t1.
+template <class A> struct ClipSpan {
+  vfloat<A> t0, t1;
+  vint<A> entry;
+};
+template <class A>
+inline ClipSpan<A> clip_span(PreparedClip const& c, RayPacket<A> const& r, vfloat<A> t0, vfloat<A> t1) {
+  vfloat<A> const zero(0.f), inf(std::numeric_limits<float>::infinity());
+  vint<A> entry(-1);
+  for (int i = 0; i < c.count; ++i) {
+    vfloat<A> const nx(c.nx[i]), ny(c.ny[i]), nz(c.nz[i]);
+    vfloat<A> const s = nx * r.dx + ny * r.dy + nz * r.dz;
+    vfloat<A> const q = nx * r.ox + ny * r.oy + nz * r.oz - vfloat<A>(c.d[i]);
+    vfloat<A> const t = (zero - q) / simd::select(s == zero, vfloat<A>(1.f), s);  // parallel lanes: below
+    vmask<A> const enter = s < zero && t > t0, leave = s > zero && t < t1;
+    t0 = simd::select(enter, t, t0);
+    entry = simd::select(simd::to_int_mask(enter), vint<A>(i), entry);
+    t1 = simd::select(leave, t, t1);
+    t0 = simd::select(s == zero && q > zero, inf, t0);  // parallel to the plane, on the side cut away
+  }
+  return {t0, t1, entry};
+}
+
+/// Where a ray from a point inside the clip region leaves it (at most t1).
+inline float clip_exit(PreparedClip const& c, glm::vec3 const& o, glm::vec3 const& d, float t1) {
+  for (int i = 0; i < c.count; ++i) {
+    float const s = c.nx[i] * d.x + c.ny[i] * d.y + c.nz[i] * d.z;
+    float const q = c.nx[i] * o.x + c.ny[i] * o.y + c.nz[i] * o.z - c.d[i];
+    if (s > 0.f) t1 = std::min(t1, -q / s);
+  }
+  return t1;
+}
+
+/// The cap colour at value v (PreparedClip's table, linear between entries).
+inline glm::vec3 cap_color(PreparedClip const& c, float v) {
+  float const x = std::min(std::max((v - c.cap_lo) * c.cap_scale, 0.f), float(PreparedClip::cap_entries - 1));
+  int const i = std::min(int(x), PreparedClip::cap_entries - 2);
+  float const f = x - float(i);
+  float const* a = c.cap_rgb[i];
+  float const* b = c.cap_rgb[i + 1];
+  return {a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])};
+}
+
+/// The field at o + t d of each lane in `lanes`, from the first part that
+/// holds the point (NaN outside the mesh and in NaN cells).
+template <class A>
+inline vfloat<A> values_at(PreparedScene const& s, RayPacket<A> const& r, vfloat<A> const& t, vmask<A> const& lanes,
+                           Traversal how, int threshold) {
+  constexpr int W = width<A>;
+  ValueWindows const everything;
+  alignas(64) float out[W];
+  for (int l = 0; l < W; ++l) out[l] = std::numeric_limits<float>::quiet_NaN();
+  for (PreparedPart const& part : s.parts) {
+    auto run = [&](auto const& mesh) {
+      constexpr int N = std::decay_t<decltype(mesh)>::corners;
+      SampleQuery<A, N> q(part.tree, mesh, r, everything, t, 0.f, 1, lanes);
+      sample_group(q, lanes, how, threshold);
+      for (int l = 0; l < W; ++l)
+        if (!(out[l] == out[l])) out[l] = q.values[0][l];
+    };
+    if (part.tets) run(*part.tets);
+    else run(*part.hexes);
+  }
+  return simd::load<A>(out);
+}
+
 /// Deterministic per-pixel hash in [0, 1): AO directions must not flicker
 /// between frames or differ between ISAs.
 inline float hash01(uint32_t a, uint32_t b) {
@@ -203,6 +271,7 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
   for (IsoSurface const& surf : p.surfaces) one_opacity = one_opacity && surf.opacity == p.surfaces[0].opacity;
   vfloat<A> const zero(0.f), one(1.f);
   Vec3<A> const eye{vfloat<A>(cam.eye.x), vfloat<A>(cam.eye.y), vfloat<A>(cam.eye.z)};
+  bool const clipping = s.clip.count > 0;
 
   for (int by = tile.y0; by < tile.y0 + tile.h; by += block_h<A>)
     for (int bx = tile.x0; bx < tile.x0 + tile.w; bx += block_w<A>) {
@@ -213,6 +282,40 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
       vfloat<A> color_r = zero, color_g = zero, color_b = zero, alpha = zero;
       r.tmin = zero;
       uint32_t live = valid;
+      if (clipping) {
+        ClipSpan<A> const cs = clip_span<A>(s.clip, r, zero, r.tmax);
+        r.tmin = cs.t0, r.tmax = cs.t1;
+        live &= simd::movemask(cs.t0 <= cs.t1);
+        uint32_t const entering = live & simd::movemask(simd::to_float_mask(cs.entry >= vint<A>(0)));
+        if (s.clip.caps && entering) {
+          // A cap: the cut face where the ray enters the region inside the
+          // mesh, opaque, in front of everything the region holds.
+          auto const v = simd::to_array<A>(values_at<A>(s, r, cs.t0, simd::mask_from_bits<A>(entering), o.traversal,
+                                                        threshold));
+          auto const plane = simd::to_array<A>(cs.entry);
+          std::array<float, W> const dir_x = simd::to_array<A>(dir.x), dir_y = simd::to_array<A>(dir.y),
+                                     dir_z = simd::to_array<A>(dir.z);
+          alignas(64) float cr_[W] = {}, cg_[W] = {}, cb_[W] = {}, ca_[W] = {};
+          uint32_t capped = 0;
+          for (uint32_t bits = entering; bits; bits &= bits - 1) {
+            int const l = __builtin_ctz(bits);
+            if (!std::isfinite(v[size_t(l)])) continue;
+            int const k = plane[size_t(l)];
+            glm::vec3 const n(s.clip.nx[k], s.clip.ny[k], s.clip.nz[k]);  // faces the eye: the ray enters against it
+            glm::vec3 const d = glm::normalize(glm::vec3(dir_x[size_t(l)], dir_y[size_t(l)], dir_z[size_t(l)]));
+            glm::vec3 const to_l = headlight ? -d : light;
+            float const ndl = std::max(0.f, glm::dot(n, to_l));
+            float const ndh = std::max(0.f, glm::dot(n, glm::normalize(to_l - d)));
+            float const spec = ndl > 0.f ? p.specular * std::pow(ndh, p.shininess) : 0.f;
+            glm::vec3 const c = glm::min(cap_color(s.clip, v[size_t(l)]) * (p.ambient + p.diffuse * ndl) + spec, 1.f);
+            cr_[l] = c.r, cg_[l] = c.g, cb_[l] = c.b, ca_[l] = 1.f;
+            capped |= 1u << l;
+          }
+          color_r = simd::load<A>(cr_), color_g = simd::load<A>(cg_), color_b = simd::load<A>(cb_);
+          alpha = simd::load<A>(ca_);
+          live &= ~capped;
+        }
+      }
       // Front-to-back layers: continue behind semi-transparent surfaces.
       for (int layer = 0; layer < 16 && live; ++layer) {
         SceneHit<A> const h = nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots, o.traversal, threshold,
@@ -266,8 +369,11 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           Ray sr[W];
           for (int l = 0; l < W; ++l) {
             bool const h1 = (hit_bits >> l) & 1u;
-            sr[l] = Ray{h1 ? pos[l] + eps * nrm[l] : cam.eye, h1 ? eps : 0.f, h1 ? ldir[l] : glm::vec3(0, 0, 1),
-                        h1 ? std::numeric_limits<float>::infinity() : -1.f};
+            glm::vec3 const o = pos[l] + eps * nrm[l];
+            float const far = clipping && h1 ? clip_exit(s.clip, o, ldir[l], std::numeric_limits<float>::infinity())
+                                             : std::numeric_limits<float>::infinity();
+            sr[l] = Ray{h1 ? o : cam.eye, h1 ? eps : 0.f, h1 ? ldir[l] : glm::vec3(0, 0, 1),
+                        h1 ? std::max(eps, far) : -1.f};
           }
           RayPacket<A> const srp = load_rays<A>(sr, W);
           if (any_hit && one_opacity) {
@@ -300,7 +406,8 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           glm::vec3 const a = std::fabs(n.x) > 0.5f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
           glm::vec3 const tx = glm::normalize(glm::cross(a, n)), ty = glm::cross(n, tx);
           glm::vec3 const d = rr * std::cos(phi) * tx + rr * std::sin(phi) * ty + std::sqrt(std::max(0.f, 1.f - u1)) * n;
-          return Ray{pos[l] + eps * nrm[l], eps, d, ao_radius};
+          glm::vec3 const o = pos[l] + eps * nrm[l];
+          return Ray{o, eps, d, clipping ? std::max(eps, clip_exit(s.clip, o, d, ao_radius)) : ao_radius};
         };
         bool const regroup = o.secondary_query == SecondaryQuery::sorted || o.secondary_query == SecondaryQuery::grouped ||
                              (o.secondary_query == SecondaryQuery::march && !march_ao);
@@ -868,7 +975,12 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
       // every t: no ray is inside it (else the sample march never ends).
       vmask<A> inside = simd::mask_from_bits<A>(s.lo.x <= s.hi.x ? valid : 0u) &&
                         box_hit(r, &s.lo.x, &s.hi.x, vfloat<A>(0.f), vfloat<A>(std::numeric_limits<float>::max()), t_enter);
-      vfloat<A> const t_exit = scene_exit(r, s);
+      vfloat<A> t_exit = scene_exit(r, s);
+      if (s.clip.count > 0) {
+        ClipSpan<A> const cs = clip_span<A>(s.clip, r, t_enter, t_exit);
+        t_enter = simd::select(inside, cs.t0, t_enter), t_exit = simd::select(inside, cs.t1, t_exit);
+        inside = inside && cs.t0 < cs.t1;
+      }
       vfloat<A> cr(0.f), cg(0.f), cb(0.f), ca(0.f);
       if (p.mode == DvrMode::samples)
         integrate_samples<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, sample_cull.data(), cr, cg, cb,
