@@ -46,7 +46,11 @@ struct IsoOut {
 };
 
 enum class CellIsoMethod { exact, neubauer };
-enum class GradientMethod { analytic, central };
+/// Normals of isosurfaces: the cell's analytic gradient (constant in a tet:
+/// facets), central differences (the paper's), or smooth: per-vertex
+/// gradients (cells/vertex_gradients.hpp) interpolated in the hit cell. The
+/// cell-level queries know no vertex gradients and answer `smooth` analytically.
+enum class GradientMethod { analytic, central, smooth };
 
 /// Options of CellQueries::iso: Neubauer rounds (paper: 2) and the hex exact
 /// method's world-space refinement steps.

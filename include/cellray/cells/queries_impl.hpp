@@ -122,11 +122,11 @@ inline void run_gradient(CellMesh<N> const& mesh, CellSelect const& sel, float c
     CellCorners<A, N> const c = load_cells<A, N>(mesh, sel, i, n);
     PointBatch<A> const p = load_points<A>(xyz, i, n);
     if constexpr (N == 4) {
-      store_vec<A>(method == GradientMethod::analytic ? gradient_tet<A>(c) : gradient_central_tet<A>(c, p.p(), h), i,
+      store_vec<A>(method != GradientMethod::central ? gradient_tet<A>(c) : gradient_central_tet<A>(c, p.p(), h), i,
                    n, out);
     } else {
       Located<A> const L = locate_hex<A>(p, c);
-      store_vec<A>(method == GradientMethod::analytic ? gradient_hex<A>(c, L.param)
+      store_vec<A>(method != GradientMethod::central ? gradient_hex<A>(c, L.param)
                                                       : gradient_central_hex<A>(c, p.p(), L.param, h),
                    i, n, out);
     }

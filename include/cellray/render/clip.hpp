@@ -70,14 +70,10 @@ struct Clip {
 /// The clip planes as the renderer uses them (unit normal n, kept n.p <= d)
 /// and the cap colours as a table: plain data the ISA units read.
 struct PreparedClip {
-  static constexpr int cap_entries = 1024;
   int count = 0;
   float nx[Clip::max_planes] = {}, ny[Clip::max_planes] = {}, nz[Clip::max_planes] = {}, d[Clip::max_planes] = {};
   bool caps = false;
-  /// Cap colour at value v: entry (v - cap_lo) * cap_scale, linear between
-  /// entries, clamped at the ends (grey without a colour map).
-  float cap_lo = 0.f, cap_scale = 0.f;
-  float cap_rgb[cap_entries][3] = {};
+  ColorTable cap_colors;  ///< grey without a colour map
 
   /// From a checked Clip (which must outlive this).
   static PreparedClip from(Clip const& c) {
@@ -89,18 +85,7 @@ struct PreparedClip {
       out.d[i] = glm::dot(n, c.planes[size_t(i)].point);
     }
     out.caps = c.caps;
-    TransferFunction const& tf = c.cap_colors;
-    if (tf.values.empty()) {
-      for (auto& e : out.cap_rgb) e[0] = e[1] = e[2] = 0.75f;
-      return out;
-    }
-    double const lo = tf.values.front(), hi = tf.values.size() > 1 ? tf.values.back() : lo + 1.0;
-    out.cap_lo = float(lo);
-    out.cap_scale = float(double(cap_entries - 1) / (hi - lo));
-    for (int i = 0; i < cap_entries; ++i) {
-      glm::vec4 const e = tf(float(lo + (hi - lo) * double(i) / double(cap_entries - 1)));
-      out.cap_rgb[i][0] = e.r, out.cap_rgb[i][1] = e.g, out.cap_rgb[i][2] = e.b;
-    }
+    if (c.caps) out.cap_colors = ColorTable::of(c.cap_colors, glm::vec3(0.75f));
     return out;
   }
 };

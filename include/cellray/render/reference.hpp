@@ -129,6 +129,8 @@ struct Part {
   TreeView tree;
   TetMesh const* tets = nullptr;
   HexMesh const* hexes = nullptr;
+  float const* gradients = nullptr;     ///< smooth normals: 3 per vertex
+  float const* color_values = nullptr;  ///< iso coloured by another array
 };
 
 struct Setup {
@@ -137,12 +139,34 @@ struct Setup {
   PreparedClip clip;  ///< the render's clip region (clip.hpp): the planes as the fast path has them
 };
 
-inline Setup prepare(Scene const& scene) {
-  PreparedScene const s = render_detail::prepare(scene);  // same checks as the fast path
+/// From the fast path's preparation (the same checks, clip and arrays).
+inline Setup prepare(PreparedScene const& s) {
   Setup out;
-  for (PreparedPart const& pp : s.parts) out.parts.push_back({pp.tree, pp.tets, pp.hexes});
+  for (PreparedPart const& pp : s.parts) out.parts.push_back({pp.tree, pp.tets, pp.hexes, pp.gradients, pp.color_values});
   out.diagonal = double(s.diagonal);
+  out.clip = s.clip;
   return out;
+}
+
+inline Setup prepare(Scene const& scene) { return prepare(render_detail::prepare(scene)); }
+
+/// Shape-function weights of `cell` at `q` (exact location; mesh order),
+/// for per-vertex quantities; false when the location fails.
+template <int N>
+inline bool weights_at(CellMesh<N> const& mesh, uint64_t cell, dvec3 const& q, double (&w)[N], uint64_t (&v)[N]) {
+  ref::Cell<N> const c = ref::load(mesh, cell);
+  ref::Location const L = ref::locate(c, q);
+  if (!L.converged || !std::isfinite(L.param.x + L.param.y + L.param.z)) return false;
+  for (int i = 0; i < N; ++i) v[i] = c.id[i];
+  if constexpr (N == 4) {
+    w[1] = L.param.x, w[2] = L.param.y, w[3] = L.param.z, w[0] = 1 - w[1] - w[2] - w[3];
+  } else {
+    dvec3 const u = glm::clamp(L.param, dvec3(0), dvec3(1));
+    for (int i = 0; i < 8; ++i)
+      w[i] = (ref::detail::hex_uvw[i][0] ? u.x : 1 - u.x) * (ref::detail::hex_uvw[i][1] ? u.y : 1 - u.y) *
+             (ref::detail::hex_uvw[i][2] ? u.z : 1 - u.z);
+  }
+  return true;
 }
 
 /// The normalized camera ray through pixel centre (x, y), as the fast path
@@ -384,6 +408,27 @@ inline dvec3 exact_normal(Setup const& s, Crossing const& x, ref::Ray const& r) 
   Part const& part = s.parts[size_t(x.part)];
   dvec3 const p = r.o + x.t * r.d;
   dvec3 g(0);
+  if (part.gradients) {  // smooth: the vertex gradients interpolated in the hit cell
+    auto interpolate = [&](auto const& mesh) {
+      constexpr int N = std::decay_t<decltype(mesh)>::corners;
+      double w[N];
+      uint64_t v[N];
+      dvec3 sum(0);
+      if (weights_at(mesh, x.cell, p, w, v))
+        for (int i = 0; i < N; ++i)
+          sum += w[i] * dvec3(part.gradients[3 * v[i]], part.gradients[3 * v[i] + 1], part.gradients[3 * v[i] + 2]);
+      else
+        sum = dvec3(std::numeric_limits<double>::quiet_NaN());
+      return sum;
+    };
+    g = part.tets ? interpolate(*part.tets) : interpolate(*part.hexes);
+    double const gg = glm::dot(g, g);
+    if (gg > 0 && std::isfinite(gg)) {
+      dvec3 n = glm::normalize(-g);
+      return glm::dot(n, r.d) > 0 ? -n : n;
+    }
+    g = dvec3(0);  // as the fast path: the cell's analytic normal instead
+  }
   if (part.tets) {
     g = ref::gradient(ref::load(*part.tets, x.cell));
   } else {
@@ -398,6 +443,26 @@ inline dvec3 exact_normal(Setup const& s, Crossing const& x, ref::Ray const& r) 
   n = glm::normalize(n);
   if (glm::dot(n, r.d) > 0) n = -n;
   return n;
+}
+
+/// Colour by another array at a crossing: `base` becomes the colour map's
+/// colour of the array interpolated in the hit cell (exactly), when finite.
+inline bool part_color(Setup const& s, Crossing const& x, dvec3 const& q, dvec3& base, TransferFunction const& colors) {
+  Part const& part = s.parts[size_t(x.part)];
+  if (!part.color_values) return false;
+  auto interpolate = [&](auto const& mesh) {
+    constexpr int N = std::decay_t<decltype(mesh)>::corners;
+    double w[N];
+    uint64_t v[N];
+    if (!weights_at(mesh, x.cell, q, w, v)) return std::numeric_limits<double>::quiet_NaN();
+    double sum = 0;
+    for (int i = 0; i < N; ++i) sum += w[i] * double(part.color_values[v[i]]);
+    return sum;
+  };
+  double const value = part.tets ? interpolate(*part.tets) : interpolate(*part.hexes);
+  if (!std::isfinite(value)) return false;
+  base = colors.values.empty() ? dvec3(0.75) : dvec3(colors(float(value)));
+  return true;
 }
 
 /// The fast path's per-pixel hash (render_impl.hpp), bit for bit.
@@ -479,6 +544,8 @@ inline void iso_pixel(Setup const& s, Camera const& cam, IsoParams const& p, Ref
     dvec3 const n = exact_normal(s, hit, r);
     dvec3 const ldir = headlight ? -r.d : light;
     IsoSurface const& surf = p.surfaces[size_t(hit.iso)];
+    dvec3 base(surf.color);
+    part_color(s, hit, pos, base, p.color_by.colors);
     double visibility = 1, occlusion = 0;
     if (p.shadows) {
       ref::Ray const sr{pos + eps * n, ldir};
@@ -502,7 +569,7 @@ inline void iso_pixel(Setup const& s, Camera const& cam, IsoParams const& p, Ref
     double const ndl = std::max(0.0, glm::dot(n, ldir));
     dvec3 const hv = glm::normalize(ldir + v);
     double const spec = ndl > 0 ? std::pow(std::max(0.0, glm::dot(n, hv)), double(p.shininess)) : 0.0;
-    dvec3 const shade = dvec3(surf.color) * (double(p.ambient) * (1 - occlusion) + double(p.diffuse) * ndl * visibility) +
+    dvec3 const shade = base * (double(p.ambient) * (1 - occlusion) + double(p.diffuse) * ndl * visibility) +
                         dvec3(double(p.specular) * spec * visibility);
     double const a = double(surf.opacity) * (1 - alpha);
     color += a * shade;
@@ -807,8 +874,8 @@ inline Image render_iso_reference(Scene const& scene, Camera const& cam, IsoPara
                                   ReferenceOptions const& o) {
   render_detail::check_camera(cam);
   render_detail::check_iso(p);
-  ref_render::Setup s = ref_render::prepare(scene);
-  s.clip = PreparedClip::from(p.clip);
+  PreparedScene const prepared = render_detail::prepare_iso(scene, p);  // the fast path's checks and arrays
+  ref_render::Setup const s = ref_render::prepare(prepared);
   Image img(cam.width, cam.height);
   ref_render::for_tiles(cam, o.tile_size, [&](int x0, int y0, int x1, int y1) {
     for (int y = y0; y < y1; ++y)
@@ -823,8 +890,7 @@ inline Image render_dvr_reference(Scene const& scene, Camera const& cam, DvrPara
   render_detail::DvrSetup checked;  // the fast path's parameter checks
   render_detail::prepare_dvr(scene, p, checked);
   if (!(o.dvr_tolerance > 0)) throw InvalidArgument("reference DVR tolerance must be positive");
-  ref_render::Setup s = ref_render::prepare(scene);
-  s.clip = PreparedClip::from(p.clip);
+  ref_render::Setup const s = ref_render::prepare(checked.scene);
   Image img(cam.width, cam.height);
   ref_render::for_tiles(cam, o.tile_size, [&](int x0, int y0, int x1, int y1) {
     std::vector<ref_render::Segment> segs;

@@ -16,6 +16,7 @@
 #include <glm/vec4.hpp>
 
 #include "../bvh/node.hpp"
+#include "../cells/vertex_gradients.hpp"
 #include "../cells/queries.hpp"
 #include "../dispatch/dispatch.hpp"
 #include "../mesh/cell_mesh.hpp"
@@ -34,6 +35,9 @@ template <int N> struct ScenePart {
   CellMesh<N> mesh;
   MinMaxBvh const* bvh = nullptr;
   ValueRanges const* ranges = nullptr;  ///< nullptr: the BVH's own ranges
+  /// Per-vertex gradients of the active array, for GradientMethod::smooth
+  /// (build_vertex_gradients, 12 bytes per vertex; again for a time step).
+  VertexGradients const* gradients = nullptr;
 };
 
 /// Tet parts may also carry their face neighbours (build_tet_neighbours,
@@ -49,6 +53,7 @@ template <> struct ScenePart<4> {
   MinMaxBvh const* bvh = nullptr;
   ValueRanges const* ranges = nullptr;  ///< nullptr: the BVH's own ranges
   TetNeighbours const* neighbours = nullptr;
+  VertexGradients const* gradients = nullptr;  ///< see ScenePart<N>::gradients
 };
 
 /// What is rendered: tetrahedral and hexahedral parts (e.g. the two halves of
@@ -76,11 +81,23 @@ struct IsoSurface {
   float opacity = 1.f;
 };
 
+/// Isosurfaces coloured by another point array (ParaView's "Coloring"): the
+/// array of that name (every part's mesh must have it) interpolated at the
+/// hit in the hit cell, through `colors` (RGB; alpha ignored). Empty `array`:
+/// each surface's own colour. Where the array is NaN, the surface's colour.
+struct IsoColorBy {
+  std::string array;
+  TransferFunction colors;
+};
+
 /// Isosurface rendering. Changing any of this never rebuilds or refits.
 struct IsoParams {
   std::vector<IsoSurface> surfaces;  ///< 1 to 8 isovalues
   CellIsoOptions roots;              ///< exact roots (default) or Neubauer with N steps
-  GradientMethod normals = GradientMethod::analytic;  ///< or central differences (the paper's)
+  /// Analytic (the hit cell's gradient: facets on tets), central differences
+  /// (the paper's) or smooth (needs ScenePart::gradients in every part).
+  GradientMethod normals = GradientMethod::analytic;
+  IsoColorBy color_by;  ///< colour by another array (off by default)
   /// Lambert + Blinn-Phong with a headlight; `light_dir` (towards the light,
   /// world space) is used for shadows; zero = the headlight.
   glm::vec3 light_dir{0.f};

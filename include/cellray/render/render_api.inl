@@ -95,10 +95,37 @@ inline void check_iso(IsoParams const& p) {
   p.clip.check();
 }
 
-/// The scene and the clip of an isosurface render.
+/// The scene, clip, normals and colouring of an isosurface render.
+/// @throws InvalidArgument when smooth normals lack a part's vertex
+/// gradients, or a part lacks the array to colour by.
 inline PreparedScene prepare_iso(Scene const& scene, IsoParams const& p) {
   PreparedScene s = prepare(scene);
   s.clip = PreparedClip::from(p.clip);
+  size_t k = 0;
+  auto extras = [&](auto const& part, char const* what, size_t index) {
+    PreparedPart& pp = s.parts[k++];
+    std::string const name = std::string(what) + " part " + std::to_string(index);
+    if (p.normals == GradientMethod::smooth) {
+      if (!part.gradients) throw InvalidArgument("smooth normals need vertex gradients (build_vertex_gradients) for " + name);
+      if (!part.gradients->fits(part.mesh))
+        throw InvalidArgument(name + ": its vertex gradients were built over another mesh (" +
+                              std::to_string(part.gradients->vertex_count()) + " vertices, this one has " +
+                              std::to_string(part.mesh.vertex_count()) + ")");
+      pp.gradients = part.gradients->data();
+    }
+    if (!p.color_by.array.empty()) {
+      for (ScalarArray const& a : part.mesh.arrays())
+        if (a.name == p.color_by.array) pp.color_values = a.values.data;
+      if (!pp.color_values) throw InvalidArgument(name + " has no point array '" + p.color_by.array + "' to colour by");
+    }
+  };
+  for (size_t i = 0; i < scene.tets.size(); ++i) extras(scene.tets[i], "tetrahedral", i);
+  for (size_t i = 0; i < scene.hexes.size(); ++i) extras(scene.hexes[i], "hexahedral", i);
+  if (!p.color_by.array.empty()) {
+    if (!p.color_by.colors.values.empty()) p.color_by.colors.check();
+    s.color_by = true;
+    s.colors = ColorTable::of(p.color_by.colors, glm::vec3(0.75f));
+  }
   return s;
 }
 

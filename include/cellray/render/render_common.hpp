@@ -22,6 +22,8 @@ struct PreparedPart {
   TetMesh const* tets = nullptr;   ///< exactly one of tets / hexes is set
   HexMesh const* hexes = nullptr;
   TetNeighbours const* neighbours = nullptr;  ///< tets only: set when DVR segments and AO rays may march
+  float const* gradients = nullptr;     ///< iso, smooth normals: 3 per vertex (VertexGradients)
+  float const* color_values = nullptr;  ///< iso coloured by another array: 1 per vertex
 };
 
 /// Transfer function sampled into a table with the opacity corrected for the
@@ -44,6 +46,8 @@ struct PreparedScene {
   PreparedTf const* tf = nullptr;
   float inv_gradient_full = 0.f;  ///< DVR shading: 1 / DvrShading::gradient_full after defaults
   PreparedClip clip;              ///< the region kept (no planes: everything)
+  bool color_by = false;          ///< iso: colour by PreparedPart::color_values through `colors`
+  ColorTable colors;
 };
 
 }  // namespace cellray

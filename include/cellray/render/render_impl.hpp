@@ -149,6 +149,74 @@ inline glm::vec3 normal_at(PreparedPart const& part, uint64_t slot, glm::vec3 p,
   return part.tets ? hit_normal(*part.tets, cell, at_hit, 0.f, m) : hit_normal(*part.hexes, cell, at_hit, 0.f, m);
 }
 
+/// Where `p` lies in `cell`: its vertex ids in the kernels' corner order and
+/// the cell's shape functions there (tets: barycentric; hexes: trilinear at
+/// the located coordinates), to interpolate any per-vertex quantity at an
+/// isosurface hit (smooth normals, colour by another array). NaN weights
+/// where a hex inversion fails.
+template <int N> struct CellWeights {
+  uint64_t v[N];
+  float w[N];
+};
+template <int N> inline CellWeights<N> cell_weights(CellMesh<N> const& mesh, uint64_t cell, glm::vec3 const& p) {
+  ScalarCorners<N> k;
+  read_corner_values(mesh, cell, k);
+  order_corners(mesh.vertex_count(), k);
+  CellCorners<scalar, N> const c = broadcast<scalar, N>(mesh, k);
+  Located<scalar> const at = CellOps<scalar, N>::locate(PointBatch<scalar>{p.x, p.y, p.z}, c);
+  CellWeights<N> out;
+  for (int i = 0; i < N; ++i) out.v[i] = k.v[i];
+  if constexpr (N == 4) {
+    out.w[1] = at.param.x, out.w[2] = at.param.y, out.w[3] = at.param.z;
+    out.w[0] = 1.f - out.w[1] - out.w[2] - out.w[3];
+  } else {
+    float const u = std::clamp(at.param.x, 0.f, 1.f), v = std::clamp(at.param.y, 0.f, 1.f),
+                w = std::clamp(at.param.z, 0.f, 1.f);
+    if (!at.converged || !std::isfinite(at.param.x + at.param.y + at.param.z))
+      for (float& x : out.w) x = std::numeric_limits<float>::quiet_NaN();
+    else
+      for (int i = 0; i < 8; ++i) {  // VTK order: bit 0 of (0 1 3 2 4 5 7 6)[i] is u, bit 1 v, bit 2 w
+        static constexpr int corner[8] = {0, 1, 3, 2, 4, 5, 7, 6};
+        int const b = corner[i];
+        out.w[i] = ((b & 1) ? u : 1.f - u) * ((b & 2) ? v : 1.f - v) * ((b & 4) ? w : 1.f - w);
+      }
+  }
+  return out;
+}
+
+/// The smooth shading normal at hit point `p` in the hit cell of a part
+/// (GradientMethod::smooth), facing against `dir`; the cell's analytic
+/// normal where the interpolated vertex gradient is NaN or zero.
+inline glm::vec3 smooth_normal(PreparedPart const& part, uint64_t slot, glm::vec3 const& p, glm::vec3 const& dir) {
+  uint64_t const cell = part.tree.item(slot);
+  auto interpolate = [&](auto const& mesh) {
+    auto const cw = cell_weights(mesh, cell, p);
+    glm::vec3 g(0.f);
+    for (int i = 0; i < std::decay_t<decltype(mesh)>::corners; ++i)
+      for (int a = 0; a < 3; ++a) g[a] += cw.w[i] * part.gradients[3 * cw.v[i] + uint64_t(a)];
+    return g;
+  };
+  glm::vec3 const g = part.tets ? interpolate(*part.tets) : interpolate(*part.hexes);
+  float const gg = glm::dot(g, g);
+  if (!(gg > 0.f) || !std::isfinite(gg)) return normal_at(part, slot, p, dir, GradientMethod::analytic);
+  Vec3<scalar> const d{dir.x, dir.y, dir.z};
+  Vec3<scalar> const n = face_forward<scalar>(shading_normal<scalar>(Vec3<scalar>{g.x, g.y, g.z}, d), d);
+  return {n.x, n.y, n.z};
+}
+
+/// The part's colour array at hit point `p` of hit cell `slot` (NaN where a
+/// corner is NaN).
+inline float color_value(PreparedPart const& part, uint64_t slot, glm::vec3 const& p) {
+  uint64_t const cell = part.tree.item(slot);
+  auto interpolate = [&](auto const& mesh) {
+    auto const cw = cell_weights(mesh, cell, p);
+    float v = 0.f;
+    for (int i = 0; i < std::decay_t<decltype(mesh)>::corners; ++i) v += cw.w[i] * part.color_values[cw.v[i]];
+    return v;
+  };
+  return part.tets ? interpolate(*part.tets) : interpolate(*part.hexes);
+}
+
 /// x^e per lane (xsimd's vector pow; std::pow for the scalar arch).
 template <class A> inline vfloat<A> pow_batch(vfloat<A> const& x, float e) {
   if constexpr (std::is_same_v<A, scalar>) return std::pow(x, e);
@@ -200,13 +268,13 @@ inline float clip_exit(PreparedClip const& c, glm::vec3 const& o, glm::vec3 cons
   return t1;
 }
 
-/// The cap colour at value v (PreparedClip's table, linear between entries).
-inline glm::vec3 cap_color(PreparedClip const& c, float v) {
-  float const x = std::min(std::max((v - c.cap_lo) * c.cap_scale, 0.f), float(PreparedClip::cap_entries - 1));
-  int const i = std::min(int(x), PreparedClip::cap_entries - 2);
+/// The colour of value v in a ColorTable (linear between entries).
+inline glm::vec3 table_color(ColorTable const& c, float v) {
+  float const x = std::min(std::max((v - c.lo) * c.scale, 0.f), float(ColorTable::entries - 1));
+  int const i = std::min(int(x), ColorTable::entries - 2);
   float const f = x - float(i);
-  float const* a = c.cap_rgb[i];
-  float const* b = c.cap_rgb[i + 1];
+  float const* a = c.rgb[i];
+  float const* b = c.rgb[i + 1];
   return {a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])};
 }
 
@@ -262,6 +330,7 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
   // constant per cell; hexes: at the hit's coordinates). Central differences
   // locate each hit again, per lane (normal_at).
   bool const query_gradient = p.normals == GradientMethod::analytic;
+  bool const smooth = p.normals == GradientMethod::smooth;
   // Any-hit shadow rays need one opacity for every surface (see the shadow block).
   bool const secondary = p.shadows || p.ao_samples > 0;
   // AO rays march from their hit cells where the scene allows (one tet part
@@ -307,7 +376,7 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
             float const ndl = std::max(0.f, glm::dot(n, to_l));
             float const ndh = std::max(0.f, glm::dot(n, glm::normalize(to_l - d)));
             float const spec = ndl > 0.f ? p.specular * std::pow(ndh, p.shininess) : 0.f;
-            glm::vec3 const c = glm::min(cap_color(s.clip, v[size_t(l)]) * (p.ambient + p.diffuse * ndl) + spec, 1.f);
+            glm::vec3 const c = glm::min(table_color(s.clip.cap_colors, v[size_t(l)]) * (p.ambient + p.diffuse * ndl) + spec, 1.f);
             cr_[l] = c.r, cg_[l] = c.g, cb_[l] = c.b, ca_[l] = 1.f;
             capped |= 1u << l;
           }
@@ -346,15 +415,22 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
                              dir_a[2] = simd::to_array<A>(dir.z);
         for (uint32_t bits = hit_bits; bits; bits &= bits - 1) {
           int const l = __builtin_ctz(bits);
+          PreparedPart const& hit_part = s.parts[size_t(part[l])];
           if (!query_gradient) {
-            glm::vec3 const n = normal_at(s.parts[size_t(part[l])], uint64_t(item[l]), lane_vec<W>(pos_a, l),
-                                          lane_vec<W>(dir_a, l), p.normals);
+            glm::vec3 const n =
+                smooth ? smooth_normal(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l), lane_vec<W>(dir_a, l))
+                       : normal_at(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l), lane_vec<W>(dir_a, l), p.normals);
             nrm_a[0][size_t(l)] = n.x, nrm_a[1][size_t(l)] = n.y, nrm_a[2][size_t(l)] = n.z;
           }
           // Per-lane copies only for the shadow and AO rays below.
           if (secondary) pos[l] = lane_vec<W>(pos_a, l), ldir[l] = lane_vec<W>(ldir_a, l), nrm[l] = lane_vec<W>(nrm_a, l);
           IsoSurface const& surf = p.surfaces[size_t(iso[l])];
-          base_r[l] = surf.color.r, base_g[l] = surf.color.g, base_b[l] = surf.color.b;
+          glm::vec3 base = surf.color;
+          if (s.color_by) {
+            float const v = color_value(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l));
+            if (std::isfinite(v)) base = table_color(s.colors, v);
+          }
+          base_r[l] = base.r, base_g[l] = base.g, base_b[l] = base.b;
           opacity[l] = surf.opacity;
         }
         if (!query_gradient) normal = {simd::load<A>(nrm_a[0].data()), simd::load<A>(nrm_a[1].data()),

@@ -10,6 +10,7 @@
 #include <string_view>
 #include <vector>
 
+#include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
 #include "../error.hpp"
@@ -107,5 +108,32 @@ inline TransferFunction transfer_function_preset(std::string_view name, float vm
   }
   return tf;
 }
+
+/// A colour map (a transfer function's RGB; alpha ignored) as a table the
+/// renderer's ISA units read as plain data: entry (v - lo) * scale, linear
+/// between entries, clamped at the ends. Caps of clip planes and isosurfaces
+/// coloured by another array use it.
+struct ColorTable {
+  static constexpr int entries = 1024;
+  float lo = 0.f, scale = 0.f;
+  float rgb[entries][3] = {};
+
+  /// The table of `tf`'s colours; `fallback` everywhere when `tf` is empty.
+  static ColorTable of(TransferFunction const& tf, glm::vec3 const& fallback) {
+    ColorTable t;
+    if (tf.values.empty()) {
+      for (auto& e : t.rgb) e[0] = fallback.r, e[1] = fallback.g, e[2] = fallback.b;
+      return t;
+    }
+    double const lo = tf.values.front(), hi = tf.values.size() > 1 ? tf.values.back() : lo + 1.0;
+    t.lo = float(lo);
+    t.scale = float(double(entries - 1) / (hi - lo));
+    for (int i = 0; i < entries; ++i) {
+      glm::vec4 const e = tf(float(lo + (hi - lo) * double(i) / double(entries - 1)));
+      t.rgb[i][0] = e.r, t.rgb[i][1] = e.g, t.rgb[i][2] = e.b;
+    }
+    return t;
+  }
+};
 
 }  // namespace cellray

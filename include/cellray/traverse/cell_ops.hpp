@@ -35,7 +35,7 @@ template <class A> struct CellOps<A, 4> {
   }
   static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 4> const& c) { return locate_tet(p, c); }
   static Vec3<A> gradient(CellCorners<A, 4> const& c, Vec3<A> const& p, GradientMethod m, float h) {
-    return m == GradientMethod::analytic ? gradient_tet(c) : gradient_central_tet(c, p, h);
+    return m != GradientMethod::central ? gradient_tet(c) : gradient_central_tet(c, p, h);
   }
 };
 
@@ -68,7 +68,7 @@ template <class A> struct CellOps<A, 8> {
   static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 8> const& c) { return locate_hex(p, c); }
   static Vec3<A> gradient(CellCorners<A, 8> const& c, Vec3<A> const& p, GradientMethod m, float h) {
     Located<A> const l = locate_hex(PointBatch<A>{p.x, p.y, p.z}, c);
-    return m == GradientMethod::analytic ? gradient_hex(c, l.param) : gradient_central_hex(c, p, l.param, h);
+    return m != GradientMethod::central ? gradient_hex(c, l.param) : gradient_central_hex(c, p, l.param, h);
   }
 };
 

@@ -45,7 +45,7 @@ void first_hits(TreeView const& tree, CellMesh<N> const& mesh, Ray const* rays, 
     // Analytic normals come with the hits, as in the renderer: the query
     // keeps the gradient of each hit cell from the corners it loaded (no
     // second corner load and, for hexes, no second point location per ray).
-    bool const query_gradient = q.normals == GradientMethod::analytic;
+    bool const query_gradient = q.normals != GradientMethod::central;  // smooth: analytic here (no vertex gradients)
     fq.want_gradient = query_gradient;
     switch (q.traversal) {
       case Traversal::packet: traverse_packet<A>(tree, r, active, fq); break;
