@@ -39,6 +39,9 @@
 #include <cellray/render/render.hpp>
 #include <cellray/render/transfer_function.hpp>
 
+#include "framing.hpp"
+#include "legend.hpp"
+
 namespace {
 
 using namespace cellray;
@@ -355,11 +358,17 @@ struct Options {
   float unit_distance = 0.f;
   float opacity = -1.f;
   std::string background;
+  float zoom = 1.f;
+  float azimuth = 0.f, elevation = 0.f;
+  int orbit = 0;
+  bool legend = false;
+  std::string title;
+  std::string font = cellray_render::default_font_path;
 };
 
 constexpr char const* exit_code_help =
     "Exit codes: 0 success; 1 other error; 2 usage (unknown flag, bad value, unknown array);\n"
-    "3 I/O (mesh or transfer function file missing, not a regular file, unreadable or malformed -- cells\n"
+    "3 I/O (mesh, transfer function or font file missing, not a regular file, unreadable or malformed -- cells\n"
     "naming points the file lacks, unsupported cells; image not writable: the old image is kept);\n"
     "4 invalid mesh (fails validation: a non-finite position of a vertex a cell uses; no cells, no point arrays,\n"
     "no finite value).\n"
@@ -423,6 +432,24 @@ void add_options(CLI::App& app, Options& o) {
   app.add_flag("--no-skip", o.no_skip, "Disable DVR empty-space skipping");
   app.add_option("--background", o.background, "R,G,B[,A] in [0,1], or white, black, transparent (default white)");
   app.add_option("--eye", o.eye, "Camera position X,Y,Z (default: framing the mesh bounds)");
+  app.add_option("--zoom", o.zoom,
+                 "Default view: the bounds' projection spans Z x 90% of the image's shorter side (default 1)")
+      ->check(positive_finite);
+  app.add_option("--azimuth", o.azimuth,
+                 "Default view: turn the view direction DEG degrees about the up axis (+y) through the bounds' centre")
+      ->check(CLI::Range(-36000.f, 36000.f));
+  app.add_option("--elevation", o.elevation,
+                 "Default view: raise the view direction DEG degrees towards +y (the result is kept within +-89)")
+      ->check(CLI::Range(-180.f, 180.f));
+  app.add_option("--orbit", o.orbit,
+                 "Turntable: N frames around the up axis (+y) through the bounds' centre, 360/N degrees apart, one "
+                 "BVH build; -o out/spin.png writes out/spin_0000.png, out/spin_0001.png, ...")
+      ->check(CLI::Range(1, 100000));
+  app.add_flag("--legend", o.legend,
+               "Draw a colour legend: the array's name, its value range with ticks, and the transfer function's "
+               "colours (DVR) or each isosurface's colour and value (iso)");
+  app.add_option("--title", o.title, "Draw TEXT as a title at the top of the image");
+  app.add_option("--font", o.font, "TrueType font for --legend and --title")->capture_default_str();
   app.add_option("--at", o.at, "Look-at point X,Y,Z (default: the bounds' centre)");
   app.add_option("--up", o.up, "Up vector X,Y,Z (default 0,1,0)");
   app.add_option("--fov", o.fov, "Vertical field of view, degrees")->check(CLI::Range(0.01f, 179.f))->capture_default_str();
@@ -603,6 +630,19 @@ void check_output_path(std::string const& out) {
                   std::strerror(errno) + ")");
 }
 
+/// The k-th of n turntable frames of `out`: out/spin.png -> out/spin_0007.png
+/// (at least 4 digits, more when n needs them).
+std::string orbit_path(std::string const& out, int k, int n) {
+  std::filesystem::path const p(out);
+  int digits = 4;
+  for (int m = 10000; m < n && digits < 9; m *= 10) ++digits;
+  char num[16];
+  std::snprintf(num, sizeof num, "_%0*d", digits, k);
+  std::filesystem::path q = p;
+  q.replace_filename(p.stem().string() + num + p.extension().string());
+  return q.string();
+}
+
 bool is_tf_preset(std::string const& name) {
   return name == "cool-warm" || name == "viridis" || name == "inferno" || name == "grayscale";
 }
@@ -715,7 +755,12 @@ int run(Options const& o) {
                        gib(ram));
   }
   if (image_format(o.out).empty()) throw UsageError("-o: '" + shown(o.out) + "' must end in .png or .ppm");
-  check_output_path(o.out);
+  if (o.orbit > 0 && o.frames > 1)
+    throw UsageError("--orbit with --frames " + std::to_string(o.frames) + ": an orbit renders each view once");
+  check_output_path(o.orbit > 0 ? orbit_path(o.out, 0, o.orbit) : o.out);
+  // The font is read before the mesh: a missing one is an I/O error (exit 3).
+  std::optional<cellray_render::Font> font;
+  if (o.legend || !o.title.empty()) font.emplace(o.font);
   bool const tf_file = o.mode == "dvr" && tf_names_file(o.tf);
   if (tf_file) io::require_regular_file(o.tf, "transfer function file");
   if (o.mode == "dvr" && !tf_file && !is_tf_preset(o.tf))
@@ -862,16 +907,44 @@ int run(Options const& o) {
     scene.tets.push_back({l.tets, &tet_bvh, refit ? &tet_ranges : nullptr, march ? &neighbours : nullptr});
   if (!l.hexes.empty()) scene.hexes.push_back({l.hexes, &hex_bvh, refit ? &hex_ranges : nullptr});
 
-  // Camera: fit the bounds, then apply what was given.
+  // Camera: the default view puts the eye where the bounds' 8 projected
+  // corners span 90% (x --zoom) of the image's shorter side, then what was
+  // given applies. An orbit keeps one distance, the largest such fit over
+  // its views: no frame is cut and the mesh keeps its size.
   glm::vec3 lo, hi;
   scene.bounds(lo, hi);
   // The default scene's blobs sit well inside its cube: frame the middle.
   float const framing = o.mesh_path.empty() ? 0.75f : 1.f;
   glm::vec3 const centre = 0.5f * (lo + hi);
-  Camera cam = fit_camera(centre + framing * (lo - centre), centre + framing * (hi - centre), width, height, o.fov);
-  if (eye || at || up)
-    cam = Camera::look_at(eye ? frame.point(*eye) : cam.eye, at ? frame.point(*at) : centre,
-                          up.value_or(glm::vec3(0.f, 1.f, 0.f)), o.fov, width, height);
+  glm::dvec3 const fit_lo(centre + framing * (lo - centre)), fit_hi(centre + framing * (hi - centre));
+  int const views = std::max(o.orbit, 1);
+  double fit = 0.0;
+  int const fits = std::min(views, 720);  // past 720 views, every half degree (about 0.3 ms a fit)
+  for (int k = 0; k < fits; ++k)
+    fit = std::max(fit, cellray_render::fit_distance(
+                            fit_lo, fit_hi, cellray_render::view_direction(o.azimuth + 360.0 * k / fits, o.elevation),
+                            0.9 * o.zoom, o.fov, width, height));
+  auto fitted_camera = [&](int k) {
+    return cellray_render::box_camera(fit_lo, fit_hi,
+                                      cellray_render::view_direction(o.azimuth + 360.0 * k / views, o.elevation), fit,
+                                      o.fov, width, height);
+  };
+  Camera cam = fitted_camera(0);
+  bool const custom = eye || at || up;
+  glm::vec3 const cam_up = up.value_or(glm::vec3(0.f, 1.f, 0.f));
+  glm::vec3 const cam_at = at ? frame.point(*at) : centre;
+  if (custom) cam = Camera::look_at(eye ? frame.point(*eye) : cam.eye, cam_at, cam_up, o.fov, width, height);
+  // The k-th view of an orbit: the default view turned by 360 k / N degrees
+  // about +y through the bounds' centre (and centred again), or a given
+  // eye, look-at point and up turned likewise; view 0 is `cam` itself.
+  auto view_camera = [&](int k) {
+    if (k == 0) return cam;
+    if (!custom) return fitted_camera(k);
+    double const deg = 360.0 * k / views;
+    return Camera::look_at(cellray_render::turn_about_y(cam.eye, centre, deg),
+                           cellray_render::turn_about_y(cam_at, centre, deg),
+                           cellray_render::turn_about_y(cam_up, glm::vec3(0.f), deg), o.fov, width, height);
+  };
   float const diagonal = glm::length(hi - lo);
 
   RenderOptions ro;
@@ -917,10 +990,7 @@ int run(Options const& o) {
       ip.roots.neubauer_steps = o.neubauer;
     }
     if (o.central_normals) ip.normals = GradientMethod::central;
-    ip.shadows = o.shadows;
-    // A light at the eye casts no visible shadow: with --shadows the light
-    // comes from above the camera's left shoulder (shading and shadows).
-    if (o.shadows) ip.light_dir = glm::normalize(0.8f * cam.up - 0.5f * cam.right - 0.4f * cam.forward);
+    ip.shadows = o.shadows;  // the light follows each view (below)
     ip.ao_samples = o.ao;
     if (background) ip.background = *background;
   } else {
@@ -959,31 +1029,59 @@ int run(Options const& o) {
     dp.background = background.value_or(glm::vec4(0.08f, 0.08f, 0.1f, 1.f));
   }
 
-  // Render.
+  // The legend shows what this render maps values to, in the file's units.
+  cellray_render::Legend legend;
+  legend.name = array;
+  if (o.mode == "iso") {
+    legend.background = ip.background;
+    legend.lo = vframe.to_data(vlo);
+    legend.hi = vframe.to_data(vhi);
+    for (auto const& s : ip.surfaces) legend.swatches.push_back({vframe.to_data(s.value), s.color});
+  } else {
+    legend.background = dp.background;
+    double const tlo = dp.tf.values.front(), thi = dp.tf.values.back();  // the map's range (--tf-file-range)
+    legend.lo = vframe.to_data(float(tlo));
+    legend.hi = vframe.to_data(float(thi));
+    for (int i = 0; i < 256; ++i) legend.ramp.push_back(glm::vec3(dp.tf(float(tlo + (thi - tlo) * i / 255.0))));
+  }
+
+  // Render: each view --frames times (an orbit: N views once each), one after
+  // another; every render already uses all cores.
   Image image;
   std::vector<double> times;
-  {
-    Phase ph(progress, "rendering " + std::to_string(width) + "x" + std::to_string(height) +
-                           (o.frames > 1 ? " " + std::to_string(o.frames) + " times" : std::string()));
-    try {
-      for (int f = 0; f < o.frames; ++f) {
-        auto const t0 = Clock::now();
-        if (o.reference)
-          image = o.mode == "iso" ? render_iso_reference(scene, cam, ip) : render_dvr_reference(scene, cam, dp);
-        else
-          image = o.mode == "iso" ? render_iso(scene, cam, ip, ro) : render_dvr(scene, cam, dp, ro);
-        times.push_back(ms_since(t0));
+  for (int v = 0; v < views; ++v) {
+    Camera const view = view_camera(v);
+    // A light at the eye casts no visible shadow: with --shadows the light
+    // comes from above the camera's left shoulder (shading and shadows).
+    if (o.shadows) ip.light_dir = glm::normalize(0.8f * view.up - 0.5f * view.right - 0.4f * view.forward);
+    {
+      Phase ph(progress, "rendering " + std::to_string(width) + "x" + std::to_string(height) +
+                             (o.frames > 1 ? " " + std::to_string(o.frames) + " times" : std::string()) +
+                             (o.orbit > 0 ? ", view " + std::to_string(v + 1) + " of " + std::to_string(views)
+                                          : std::string()));
+      try {
+        for (int f = 0; f < o.frames; ++f) {
+          auto const t0 = Clock::now();
+          if (o.reference)
+            image = o.mode == "iso" ? render_iso_reference(scene, view, ip) : render_dvr_reference(scene, view, dp);
+          else
+            image = o.mode == "iso" ? render_iso(scene, view, ip, ro) : render_dvr(scene, view, dp, ro);
+          times.push_back(ms_since(t0));
+        }
+      } catch (std::bad_alloc const&) {
+        throw Error("out of memory rendering " + std::to_string(width) + "x" + std::to_string(height) + " (" +
+                    gib(16.0 * double(width) * double(height)) + " for the float image alone; try a smaller --size)");
       }
-    } catch (std::bad_alloc const&) {
-      throw Error("out of memory rendering " + std::to_string(width) + "x" + std::to_string(height) + " (" +
-                  gib(16.0 * double(width) * double(height)) + " for the float image alone; try a smaller --size)");
     }
+    if (image.width != width || image.height != height)
+      throw Error("the renderer returned a " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+                  " image for " + std::to_string(width) + "x" + std::to_string(height));
+    if (o.legend) cellray_render::draw_legend(image, *font, legend);
+    if (!o.title.empty()) cellray_render::draw_title(image, *font, o.title, legend.background);
+    std::string const path = o.orbit > 0 ? orbit_path(o.out, v, o.orbit) : o.out;
+    write_image(path, image);
+    if (progress) std::cerr << "cellray-render: wrote " << path << "\n";
   }
-  if (image.width != width || image.height != height)
-    throw Error("the renderer returned a " + std::to_string(image.width) + "x" + std::to_string(image.height) +
-                " image for " + std::to_string(width) + "x" + std::to_string(height));
-  write_image(o.out, image);
-  if (progress) std::cerr << "cellray-render: wrote " << o.out << "\n";
 
   if (o.stats) {
     double const render_ms = median(times);
@@ -1018,6 +1116,7 @@ int run(Options const& o) {
     j["bvh_bytes"] = bvh_bytes;
     j["bvh_bytes_per_cell"] = double(bvh_bytes) / double(l.cells());
     j["frames"] = o.frames;
+    if (o.orbit > 0) j["orbit"] = o.orbit;
     j["render_ms"] = render_ms;
     j["render_ms_min"] = *std::min_element(times.begin(), times.end());
     j["mrays_per_s"] = double(width) * double(height) / (render_ms * 1e-3) / 1e6;

@@ -25,3 +25,7 @@ $r "$d"/openfoam/component8_heat_608k.vtk --array T --mode dvr --tf inferno --si
    -o $out/component8_dvr.png
 $r "$d"/vtk-data/disk_out_ref.vtu --array Temp --mode dvr --tf cool-warm --size 640x480 \
    -o $out/disk_out_ref_dvr.png
+$r "$d"/openfoam/component8_heat_608k.vtk --array T --mode dvr --tf inferno --legend \
+   --title "component8_heat_608k: temperature" --azimuth 25 --size 640x480 -o $out/component8_legend.png
+$r "$d"/openfoam/component8_heat_608k.vtk --array T --iso 330,423,520 --iso-opacity 0.35,0.6,1 --legend \
+   --size 640x480 -o $out/component8_iso_legend.png
