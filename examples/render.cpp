@@ -353,6 +353,11 @@ struct Options {
   bool no_skip = false;
   int neubauer = 0;
   bool central_normals = false;
+  std::string normals = "smooth";
+  std::string color_by, color_map = "cool-warm";
+  std::vector<std::string> clip;
+  std::string clip_box;
+  bool clip_caps = false;
   bool skip_unsupported = false;
   std::string cell_to_point;
   float unit_distance = 0.f;
@@ -398,7 +403,24 @@ void add_options(CLI::App& app, Options& o) {
                  "Opacity per isovalue A1,A2,... or one for all (default: 0.4 for all but the last, which is opaque)");
   app.add_option("--neubauer", o.neubauer, "Isosurface roots by N Neubauer steps instead of exactly")
       ->check(CLI::Range(1, 64));
-  app.add_flag("--central-normals", o.central_normals, "Normals by central differences (the paper's) instead of analytic");
+  app.add_option("--normals", o.normals,
+                 "Isosurface normals: smooth (per-vertex gradients interpolated in the cell, 12 bytes a vertex), "
+                 "flat (the cell's own gradient: facets on tets) or central (differences, the paper's)")
+      ->check(CLI::IsMember({"smooth", "flat", "central"}))
+      ->capture_default_str();
+  app.add_flag("--central-normals", o.central_normals, "Same as --normals central");
+  app.add_option("--color-by", o.color_by, "Colour the isosurfaces by point array NAME (through --color-map)");
+  app.add_option("--color-map", o.color_map,
+                 "Colour map of --color-by and of --clip-caps, over that array's range: cool-warm, viridis, inferno, "
+                 "grayscale")
+      ->check(CLI::IsMember({"cool-warm", "viridis", "inferno", "grayscale"}))
+      ->capture_default_str();
+  app.add_option("--clip", o.clip,
+                 "Clip plane X,Y,Z,NX,NY,NZ (a point and a normal, world units): the side the normal points to is "
+                 "cut away; repeat for several (at most 16 with --clip-box)");
+  app.add_option("--clip-box", o.clip_box, "Keep only the box X0,Y0,Z0,X1,Y1,Z1 (world units)");
+  app.add_flag("--clip-caps", o.clip_caps,
+               "Iso: draw the cut faces of --clip / --clip-box, coloured by the rendered array through --color-map");
   app.add_flag("--shadows", o.shadows, "Hard shadows from a light above the camera's left shoulder (iso)");
   app.add_option("--ao", o.ao, "Ambient-occlusion rays per hit (iso)")->check(CLI::Range(0, 1024));
   app.add_option("--tf", o.tf,
@@ -798,6 +820,25 @@ int run(Options const& o) {
   if (!o.eye.empty()) eye = parse_vec3(o.eye, "--eye");
   if (!o.at.empty()) at = parse_vec3(o.at, "--at");
   if (!o.up.empty()) up = parse_vec3(o.up, "--up");
+  // Clip planes in world units (mapped with the mesh's Frame once it is read).
+  std::vector<ClipPlane> world_clip;
+  for (auto const& text : o.clip) {
+    auto const v = parse_floats(text, "--clip");
+    if (v.size() != 6) throw UsageError("--clip: expected X,Y,Z,NX,NY,NZ, got '" + shown(text) + "'");
+    if (v[3] == 0.f && v[4] == 0.f && v[5] == 0.f) throw UsageError("--clip: the normal of '" + shown(text) + "' is zero");
+    world_clip.push_back({{v[0], v[1], v[2]}, {v[3], v[4], v[5]}});
+  }
+  std::optional<std::pair<glm::vec3, glm::vec3>> world_box;
+  if (!o.clip_box.empty()) {
+    auto const v = parse_floats(o.clip_box, "--clip-box");
+    if (v.size() != 6 || v[0] > v[3] || v[1] > v[4] || v[2] > v[5])
+      throw UsageError("--clip-box: expected X0,Y0,Z0,X1,Y1,Z1 with X0 <= X1, Y0 <= Y1, Z0 <= Z1, got '" +
+                       shown(o.clip_box) + "'");
+    world_box = {{v[0], v[1], v[2]}, {v[3], v[4], v[5]}};
+  }
+  if (world_clip.size() + (world_box ? 6 : 0) > size_t(Clip::max_planes))
+    throw UsageError("--clip, --clip-box: at most " + std::to_string(Clip::max_planes) +
+                     " planes in all (a box is 6)");
 
   std::optional<tbb::global_control> thread_limit;
   if (o.threads > 0) thread_limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
@@ -812,6 +853,11 @@ int run(Options const& o) {
     load_ms = ph.finish();
   }
   Frame const frame = l.grid ? fit_frame(*l.grid) : Frame{};
+  Clip clip;
+  for (ClipPlane const& c : world_clip) clip.planes.push_back({frame.point(c.point), c.normal});
+  if (world_box)
+    for (ClipPlane const& c : clip_box(frame.point(world_box->first), frame.point(world_box->second)))
+      clip.planes.push_back(c);
   if (frame.moved && (o.verbose || o.info))
     std::cerr << "cellray-render: coordinates moved by -(" << frame.centre.x << ", " << frame.centre.y << ", "
               << frame.centre.z << ") and scaled by " << frame.scale << " for float ray tracing\n";
@@ -902,10 +948,23 @@ int run(Options const& o) {
     neighbours = build_tet_neighbours(l.tets);
     neighbours_ms = ph.finish();
   }
+  // Smooth isosurface normals: per-vertex gradients of the rendered array.
+  std::string const normals = o.central_normals ? "central" : o.normals;
+  VertexGradients tet_gradients, hex_gradients;
+  double gradients_ms = 0;
+  bool const smooth = o.mode == "iso" && normals == "smooth";
+  if (smooth) {
+    Phase ph(progress, "vertex gradients of '" + shown(array) + "'");
+    if (!l.tets.empty()) tet_gradients = build_vertex_gradients(l.tets);
+    if (!l.hexes.empty()) hex_gradients = build_vertex_gradients(l.hexes);
+    gradients_ms = ph.finish();
+  }
   Scene scene;
   if (!l.tets.empty())
-    scene.tets.push_back({l.tets, &tet_bvh, refit ? &tet_ranges : nullptr, march ? &neighbours : nullptr});
-  if (!l.hexes.empty()) scene.hexes.push_back({l.hexes, &hex_bvh, refit ? &hex_ranges : nullptr});
+    scene.tets.push_back({l.tets, &tet_bvh, refit ? &tet_ranges : nullptr, march ? &neighbours : nullptr,
+                          smooth ? &tet_gradients : nullptr});
+  if (!l.hexes.empty())
+    scene.hexes.push_back({l.hexes, &hex_bvh, refit ? &hex_ranges : nullptr, smooth ? &hex_gradients : nullptr});
 
   // Camera: the default view puts the eye where the bounds' 8 projected
   // corners span 90% (x --zoom) of the image's shorter side, then what was
@@ -989,7 +1048,25 @@ int run(Options const& o) {
       ip.roots.method = CellIsoMethod::neubauer;
       ip.roots.neubauer_steps = o.neubauer;
     }
-    if (o.central_normals) ip.normals = GradientMethod::central;
+    ip.normals = normals == "central" ? GradientMethod::central
+                 : normals == "flat"  ? GradientMethod::analytic
+                                      : GradientMethod::smooth;
+    if (!o.color_by.empty()) {
+      ip.color_by.array = select_array(l, o.color_by, "--color-by");
+      float clo = std::numeric_limits<float>::infinity(), chi = -clo;
+      for (auto const& a : l.arrays())
+        if (a.name == ip.color_by.array)
+          for (uint64_t v = 0; v < a.values.size; ++v)
+            if (std::isfinite(a.values.data[v])) clo = std::min(clo, a.values.data[v]), chi = std::max(chi, a.values.data[v]);
+      if (!(clo <= chi)) throw InvalidMesh(l.name + ": point array '" + shown(o.color_by) + "' has no finite value to colour by");
+      ip.color_by.colors = transfer_function_preset(o.color_map, clo, chi);
+    }
+    ip.clip = clip;
+    if (o.clip_caps) {
+      if (clip.planes.empty()) throw UsageError("--clip-caps: give --clip or --clip-box");
+      ip.clip.caps = true;
+      ip.clip.cap_colors = transfer_function_preset(o.color_map, vlo, vhi);
+    }
     ip.shadows = o.shadows;  // the light follows each view (below)
     ip.ao_samples = o.ao;
     if (background) ip.background = *background;
@@ -1027,12 +1104,21 @@ int run(Options const& o) {
     dp.shading.enabled = o.dvr_shading;
     // Volumes read best on a dark background (ParaView's choice too).
     dp.background = background.value_or(glm::vec4(0.08f, 0.08f, 0.1f, 1.f));
+    dp.clip = clip;
   }
 
   // The legend shows what this render maps values to, in the file's units.
   cellray_render::Legend legend;
   legend.name = array;
-  if (o.mode == "iso") {
+  if (o.mode == "iso" && !ip.color_by.array.empty()) {
+    // Coloured by another array: the legend is that array's colour map.
+    legend.background = ip.background;
+    legend.name = ip.color_by.array;
+    TransferFunction const& cm = ip.color_by.colors;
+    double const clo = cm.values.front(), chi = cm.values.back();
+    legend.lo = clo, legend.hi = chi;
+    for (int i = 0; i < 256; ++i) legend.ramp.push_back(glm::vec3(cm(float(clo + (chi - clo) * i / 255.0))));
+  } else if (o.mode == "iso") {
     legend.background = ip.background;
     legend.lo = vframe.to_data(vlo);
     legend.hi = vframe.to_data(vhi);
@@ -1112,6 +1198,10 @@ int run(Options const& o) {
     j["refit_ms"] = refit_ms;
     j["neighbours_ms"] = neighbours_ms;
     j["neighbours_bytes"] = neighbours.memory_bytes();
+    if (o.mode == "iso") j["normals"] = normals;
+    j["gradients_ms"] = gradients_ms;
+    j["gradients_bytes"] = tet_gradients.memory_bytes() + hex_gradients.memory_bytes();
+    j["clip_planes"] = clip.planes.size();
     j["bvh_nodes"] = tet_bvh.node_count() * !l.tets.empty() + hex_bvh.node_count() * !l.hexes.empty();
     j["bvh_bytes"] = bvh_bytes;
     j["bvh_bytes_per_cell"] = double(bvh_bytes) / double(l.cells());

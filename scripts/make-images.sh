@@ -29,3 +29,13 @@ $r "$d"/openfoam/component8_heat_608k.vtk --array T --mode dvr --tf inferno --le
    --title "component8_heat_608k: temperature" --azimuth 25 --size 640x480 -o $out/component8_legend.png
 $r "$d"/openfoam/component8_heat_608k.vtk --array T --iso 330,423,520 --iso-opacity 0.35,0.6,1 --legend \
    --size 640x480 -o $out/component8_iso_legend.png
+$r "$d"/openfoam/component8_heat_608k.vtk --array T --iso 423 --normals flat --zoom 2.5 --azimuth 20 \
+   --size 480x360 -o $out/component8_normals_flat.png
+$r "$d"/openfoam/component8_heat_608k.vtk --array T --iso 423 --zoom 2.5 --azimuth 20 \
+   --size 480x360 -o $out/component8_normals_smooth.png
+$r "$d"/openfoam/boxturb48_dns.vtk --array enstrophy --iso 0.25 --color-by p --color-map cool-warm --legend \
+   --title "enstrophy 0.25 coloured by pressure" --size 480x360 -o $out/boxturb_color_by_p.png
+$r "$d"/openfoam/component8_heat_608k.vtk --array T --iso 330,423,520 --iso-opacity 0.35,0.6,1 \
+   --clip 0,172,0,0,0,1 --clip-caps --color-map inferno --size 480x360 -o $out/component8_clip_caps.png
+$r "$d"/openfoam/component8_heat_608k.vtk --array T --mode dvr --tf inferno --clip 0,172,0,0,0,1 \
+   --size 480x360 -o $out/component8_clip_dvr.png

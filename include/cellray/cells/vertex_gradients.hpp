@@ -11,6 +11,7 @@
 // double, stored as float; 12 bytes per vertex. A new time step (another
 // array) needs them again: build_vertex_gradients on the new view.
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -45,24 +46,29 @@ class VertexGradients {
 
 namespace detail {
 
-/// Gradient and weight of corner k of cell `cell`, or weight 0 (a NaN or
-/// infinite value, a flat cell).
-template <int N> inline double corner_gradient(CellMesh<N> const& mesh, uint64_t cell, int k, glm::dvec3& g) {
+/// Weighted gradients of one cell: tets one (the cell's, weight its
+/// volume), hexes one per corner (at the corner, weight |det J| / 8); each
+/// as gx, gy, gz, weight (weight 0: a NaN or infinite value, a flat cell).
+template <int N> inline constexpr int gradients_per_cell = N == 4 ? 1 : 8;
+
+template <int N> inline void cell_gradients(CellMesh<N> const& mesh, uint64_t cell, std::array<float, 4>* out) {
   ref::Cell<N> const c = ref::load(mesh, cell);
-  if (ref::has_nan(c)) return 0.0;
+  bool const nan = ref::has_nan(c);
+  auto put = [&](int k, glm::dvec3 const& g, double w) {
+    bool const ok = !nan && w > 0 && std::isfinite(w) && std::isfinite(g.x + g.y + g.z);
+    out[k][0] = ok ? float(w * g.x) : 0.f, out[k][1] = ok ? float(w * g.y) : 0.f;
+    out[k][2] = ok ? float(w * g.z) : 0.f, out[k][3] = ok ? float(w) : 0.f;
+  };
   if constexpr (N == 4) {
-    (void)k;
     glm::dvec3 const e1 = c.p[1] - c.p[0], e2 = c.p[2] - c.p[0], e3 = c.p[3] - c.p[0];
-    double const vol = std::abs(glm::dot(e1, glm::cross(e2, e3))) / 6.0;
-    g = ref::gradient(c);
-    return std::isfinite(vol) && vol > 0 ? vol : 0.0;
+    put(0, nan ? glm::dvec3(0) : ref::gradient(c), std::abs(glm::dot(e1, glm::cross(e2, e3))) / 6.0);
   } else {
-    glm::dvec3 const u(ref::detail::hex_uvw[k][0], ref::detail::hex_uvw[k][1], ref::detail::hex_uvw[k][2]);
-    glm::dvec3 ju, jv, jw;
-    ref::detail::trilerp_grad(c.p, u, ju, jv, jw);
-    double const vol = std::abs(glm::dot(ju, glm::cross(jv, jw))) / 8.0;
-    g = ref::gradient(c, u);
-    return std::isfinite(vol) && vol > 0 ? vol : 0.0;
+    for (int k = 0; k < 8; ++k) {
+      glm::dvec3 const u(ref::detail::hex_uvw[k][0], ref::detail::hex_uvw[k][1], ref::detail::hex_uvw[k][2]);
+      glm::dvec3 ju, jv, jw;
+      ref::detail::trilerp_grad(c.p, u, ju, jv, jw);
+      put(k, nan ? glm::dvec3(0) : ref::gradient(c, u), std::abs(glm::dot(ju, glm::cross(jv, jw))) / 8.0);
+    }
   }
 }
 
@@ -76,7 +82,14 @@ template <int N> VertexGradients build_vertex_gradients(CellMesh<N> const& mesh)
   VertexGradients out;
   out.g_.assign(3 * nv, std::numeric_limits<float>::quiet_NaN());
   if (!mesh.has_values() || nc == 0) return out;
-  // Corners (cell * N + k) grouped by vertex.
+  constexpr int per = detail::gradients_per_cell<N>;
+  // Each cell's weighted gradients once, in parallel (16 bytes each, freed
+  // at the end), then per vertex the sum over its corners.
+  std::vector<std::array<float, 4>> cell(nc * per);
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nc, 4096), [&](tbb::blocked_range<uint64_t> const& r) {
+    for (uint64_t c = r.begin(); c < r.end(); ++c) detail::cell_gradients(mesh, c, &cell[c * per]);
+  });
+  // Corners (cell * N + k) grouped by vertex: a counting sort.
   std::vector<uint64_t> start(nv + 1, 0);
   for (uint64_t c = 0; c < nc; ++c)
     for (int k = 0; k < N; ++k) ++start[mesh.vertex(c, k) + 1];
@@ -87,17 +100,15 @@ template <int N> VertexGradients build_vertex_gradients(CellMesh<N> const& mesh)
     for (uint64_t c = 0; c < nc; ++c)
       for (int k = 0; k < N; ++k) corner[fill[mesh.vertex(c, k)]++] = c * N + uint64_t(k);
   }
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nv, 1024), [&](tbb::blocked_range<uint64_t> const& r) {
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nv, 4096), [&](tbb::blocked_range<uint64_t> const& r) {
     for (uint64_t v = r.begin(); v < r.end(); ++v) {
-      glm::dvec3 sum(0.0);
-      double weight = 0.0;
+      double sum[4] = {0, 0, 0, 0};
       for (uint64_t i = start[v]; i < start[v + 1]; ++i) {
-        glm::dvec3 g(0.0);
-        double const w = detail::corner_gradient(mesh, corner[i] / N, int(corner[i] % N), g);
-        if (w > 0 && std::isfinite(g.x + g.y + g.z)) sum += w * g, weight += w;
+        std::array<float, 4> const& e = cell[N == 4 ? corner[i] / N : corner[i]];  // hexes: per = N, so the corner index itself
+        for (int a = 0; a < 4; ++a) sum[a] += double(e[a]);
       }
-      if (weight > 0)
-        for (int a = 0; a < 3; ++a) out.g_[3 * v + uint64_t(a)] = float(sum[a] / weight);
+      if (sum[3] > 0)
+        for (int a = 0; a < 3; ++a) out.g_[3 * v + uint64_t(a)] = float(sum[a] / sum[3]);
     }
   });
   return out;
