@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Draws docs/accuracy_iso.png and docs/accuracy_dvr.png from the CSV that
+"""Draws docs/accuracy_iso.png, docs/accuracy_dvr.png and
+docs/accuracy_normals.png from the CSV that
 bench_accuracy writes: speed (Mrays/s, log x) against image error versus the
 reference renderer (RMSE in 8-bit units, log y), one point per configuration
 (aggregated over meshes: geometric-mean speed, largest RMSE), the Pareto
@@ -89,9 +90,35 @@ def draw(pts, mode, out, meshes):
     return front
 
 
+def draw_normals(rows, out):
+    """Isosurface normals against the exact field's: one point per mesh and method."""
+    pts = [r for r in rows if r["mode"] == "normals"]
+    if not pts:
+        return
+    fig, ax = plt.subplots(figsize=(6.4, 3.6), dpi=150)
+    marks = {"flat": "s", "central": "^", "smooth": "o"}
+    for mesh in sorted({r["mesh"] for r in pts}):
+        rs = [r for r in pts if r["mesh"] == mesh]
+        for r in rs:
+            ax.scatter(float(r["mrays_per_s"]), float(r["rmse_8bit"]), marker=marks.get(r["normals"], "x"), s=36,
+                       label=f'{mesh}: {r["normals"]}' + (" (default)" if r["is_default"] == "1" else ""))
+    ax.set_xlabel("Mrays/s (median frame, all cores)")
+    ax.set_ylabel("shading RMSE vs the exact sphere (8-bit)")
+    ax.set_title("Isosurface normals: speed vs error against the field's true normals", fontsize=10)
+    ax.grid(True, lw=0.3, alpha=0.5)
+    ax.legend(fontsize=6, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    fig.savefig(out, bbox_inches="tight")
+    print(f"wrote {out}")
+    for r in pts:
+        print(f'normals {r["mesh"]} {r["normals"]}: {float(r["mrays_per_s"]):.3f} Mrays/s, '
+              f'RMSE {float(r["rmse_8bit"]):.2f}/255, max {float(r["max_8bit"]):.1f}')
+
+
 def main():
     rows = load(sys.argv[1])
     outdir = sys.argv[2] if len(sys.argv) > 2 else "docs"
+    draw_normals(rows, f"{outdir}/accuracy_normals.png")
+    rows = [r for r in rows if r["mode"] != "normals"]
     meshes = ", ".join(sorted({r["mesh"] for r in rows}))
     for mode in ("iso", "dvr"):
         pts = aggregate(rows, mode)
