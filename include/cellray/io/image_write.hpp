@@ -98,7 +98,8 @@ inline void write_file_replacing(std::string const& path, std::string_view bytes
   if (::rename(tmp.c_str(), target.c_str()) != 0) give_up(std::strerror(errno));
 }
 
-/// `img` encoded as binary PPM (P6, RGB, alpha dropped).
+/// `img` encoded as binary PPM (P6, RGB, alpha dropped: the premultiplied
+/// colour, i.e. the image over black).
 inline std::string encode_ppm(Image const& img) {
   std::string out = "P6\n" + std::to_string(img.width) + " " + std::to_string(img.height) + "\n255\n";
   auto const px = img.to_rgba8();
@@ -112,13 +113,13 @@ inline std::string encode_ppm(Image const& img) {
 /// @throws IoError naming the path when it cannot be written.
 inline void write_ppm(std::string const& path, Image const& img) { write_file_replacing(path, encode_ppm(img)); }
 
-/// Writes `img` as 8-bit RGBA PNG, replacing `path` only once the whole file
+/// Writes `img` as 8-bit RGBA PNG (straight alpha), replacing `path` only once the whole file
 /// is written (write_file_replacing). @throws IoError on failure or when
 /// built without stb.
 inline void write_png(std::string const& path, Image const& img) {
 #if CELLRAY_HAS_PNG
   if (img.width < 1 || img.height < 1) throw IoError(path + ": cannot write an empty image as PNG");
-  auto const px = img.to_rgba8();
+  auto const px = img.to_straight_rgba8();  // PNG stores straight alpha; Image holds premultiplied
   std::string png;
   auto append = [](void* to, void* data, int size) {
     static_cast<std::string*>(to)->append(static_cast<char const*>(data), size_t(size));

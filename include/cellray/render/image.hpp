@@ -1,8 +1,13 @@
 #pragma once
-// The framebuffer: RGBA floats in [0, 1], straight (not premultiplied)
-// alpha, row 0 at the top.
+// The framebuffer: RGBA floats in [0, 1], premultiplied alpha (colour
+// already multiplied by coverage: what "over" compositing and IceT want),
+// row 0 at the top. With an opaque background (alpha 1) premultiplied and
+// straight are the same numbers; PNG output converts to straight alpha.
+// FrameBuffer is the host's door: its own RGBA buffer (8-bit or float, any
+// row stride) and optional depth buffers in and out.
 
 #include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -12,7 +17,7 @@ namespace cellray {
 
 struct Image {
   int width = 0, height = 0;
-  std::vector<float> rgba;  ///< 4 floats per pixel, row-major, top row first
+  std::vector<float> rgba;  ///< 4 floats per pixel, row-major, top row first, premultiplied
 
   Image() = default;
   Image(int w, int h) : width(w), height(h), rgba(size_t(w) * size_t(h) * 4, 0.f) {
@@ -21,8 +26,9 @@ struct Image {
   float* pixel(int x, int y) { return rgba.data() + (size_t(y) * size_t(width) + size_t(x)) * 4; }
   float const* pixel(int x, int y) const { return rgba.data() + (size_t(y) * size_t(width) + size_t(x)) * 4; }
 
-  /// 8-bit RGBA, each channel round(clamp(c, 0, 1) * 255); a NaN channel
-  /// (a renderer bug: none is expected) becomes 0, never undefined behaviour.
+  /// 8-bit RGBA, each channel round(clamp(c, 0, 1) * 255), as stored
+  /// (premultiplied); a NaN channel (a renderer bug: none is expected)
+  /// becomes 0, never undefined behaviour.
   std::vector<uint8_t> to_rgba8() const {
     std::vector<uint8_t> out(rgba.size());
     for (size_t i = 0; i < rgba.size(); ++i) {
@@ -30,6 +36,52 @@ struct Image {
       out[i] = uint8_t(c * 255.f + 0.5f);
     }
     return out;
+  }
+  /// 8-bit RGBA with straight alpha (colour divided by alpha where 0 < alpha
+  /// < 1), as PNG stores it.
+  std::vector<uint8_t> to_straight_rgba8() const {
+    std::vector<uint8_t> out(rgba.size());
+    for (size_t i = 0; i < rgba.size(); i += 4) {
+      float const a = rgba[i + 3] > 0.f ? std::min(rgba[i + 3], 1.f) : 0.f;
+      for (size_t k = 0; k < 4; ++k) {
+        float c = k == 3 ? a : (a > 0.f && a < 1.f ? rgba[i + k] / a : rgba[i + k]);
+        c = c > 0.f ? std::min(c, 1.f) : 0.f;
+        out[i + k] = uint8_t(c * 255.f + 0.5f);
+      }
+    }
+    return out;
+  }
+};
+
+/// Where render_tile writes, owned by the host. Colours are premultiplied
+/// RGBA in [0, 1] (8-bit: round(c * 255)). Depth is the distance along each
+/// camera ray from the eye (the rays have unit directions), in world units.
+struct FrameBuffer {
+  enum class Format : uint8_t { rgba8, rgba32f };
+  int width = 0, height = 0;  ///< must equal the camera's
+  /// Pixel (x, y) at rgba + y * row_bytes + x * (4 bytes for rgba8, 16 for
+  /// rgba32f); row 0 at the top. Only a tile's pixels are written.
+  void* rgba = nullptr;
+  Format format = Format::rgba32f;
+  size_t row_bytes = 0;  ///< 0: rows of width pixels, no padding
+  /// Optional: the host's opaque geometry, depth_in[y * depth_in_row + x]
+  /// (+inf: none). Rays end there: the volume stops, isosurfaces behind it
+  /// are hidden; what shows through is the host's to composite under the
+  /// returned colour.
+  float const* depth_in = nullptr;
+  size_t depth_in_row = 0;  ///< floats per row; 0: width
+  /// Optional out: where the accumulated opacity along the ray first
+  /// reaches `depth_opacity` (isosurfaces: at a hit; DVR: within one step),
+  /// +inf where it never does (ParaView's volume depth).
+  float* depth_out = nullptr;
+  size_t depth_out_row = 0;  ///< floats per row; 0: width
+  float depth_opacity = 0.5f;
+
+  /// A frame buffer over an Image (float RGBA, tight rows).
+  static FrameBuffer of(Image& img) {
+    FrameBuffer f;
+    f.width = img.width, f.height = img.height, f.rgba = img.rgba.data();
+    return f;
   }
 };
 

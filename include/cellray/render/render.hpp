@@ -10,6 +10,7 @@
 // so any number of renders may run at once on the same parts.
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <glm/vec3.hpp>
@@ -239,15 +240,60 @@ struct RenderStats {
   uint64_t secondary_rays = 0;
 };
 
-/// Entry points per ISA (dispatch.hpp). `out` is the full image; only the
-/// tile's pixels are written. The scene is prepared by render_iso/render_dvr.
+/// Entry points per ISA (dispatch.hpp). `out` covers the whole image; only
+/// the tile's pixels are written. The scene is prepared once per frame.
 template <class Arch> struct RenderTileEntry {
   static void run(PreparedScene const& scene, Camera const& cam, IsoParams const& p, RenderOptions const& o, Tile tile,
-                  Image& out);
+                  FrameBuffer const& out);
   static void run(PreparedScene const& scene, Camera const& cam, DvrParams const& p, RenderOptions const& o, Tile tile,
-                  Image& out);
+                  FrameBuffer const& out);
 };
 CELLRAY_EXTERN_ENTRY(RenderTileEntry)
+
+/// Volume integration of host rays [tmin, tmax] (ISA units): premultiplied
+/// RGBA (4 floats per ray, no background) and, if `depth`, the ray distance
+/// where the opacity first reaches `depth_at` (+inf where it never does).
+template <class Arch> struct RayVolumeEntry {
+  static void run(PreparedScene const& scene, DvrParams const& p, RenderOptions const& o, Ray const* rays, uint64_t n,
+                  float* rgba, float* depth, float depth_at);
+};
+CELLRAY_EXTERN_ENTRY(RayVolumeEntry)
+
+namespace render_detail {
+struct DvrSetup {
+  PreparedScene scene;
+  PreparedTf table;
+};
+}  // namespace render_detail
+
+/// An isosurface frame prepared once (scene checks, clip, vertex gradients
+/// and colouring looked up), for hosts that render it tile by tile on their
+/// own threads: every render_tile call reads it, none changes it. The scene's
+/// meshes, trees and `p` must outlive it.
+class IsoFrame {
+ public:
+  IsoFrame(Scene const& scene, IsoParams const& p);
+  PreparedScene const& prepared() const { return scene_; }
+  IsoParams const& params() const { return *p_; }
+
+ private:
+  PreparedScene scene_;
+  IsoParams const* p_;
+};
+
+/// A DVR frame prepared once: scene checks, clip, value windows and the
+/// transfer-function table (4096 entries; built per tile before, 8 % of a
+/// 256-pixel tile's time on component8). Same rules as IsoFrame.
+class DvrFrame {
+ public:
+  DvrFrame(Scene const& scene, DvrParams const& p);
+  PreparedScene const& prepared() const { return setup_->scene; }
+  DvrParams const& params() const { return *p_; }
+
+ private:
+  std::unique_ptr<render_detail::DvrSetup> setup_;  // the scene points into its table: kept in place
+  DvrParams const* p_;
+};
 
 /// Renders the whole image with TBB (the calling thread's arena).
 /// @throws InvalidArgument for bad parameters (no or more than 8 isovalues,
@@ -256,11 +302,38 @@ CELLRAY_EXTERN_ENTRY(RenderTileEntry)
 Image render_iso(Scene const& scene, Camera const& cam, IsoParams const& p, RenderOptions const& o = {});
 Image render_dvr(Scene const& scene, Camera const& cam, DvrParams const& p, RenderOptions const& o = {});
 
-/// One tile on the calling thread, for hosts with their own scheduler.
+/// One tile of a prepared frame on the calling thread, into the host's
+/// buffer (premultiplied RGBA, optional depth in and out: FrameBuffer), for
+/// hosts with their own scheduler. Thread-safe: tiles of one frame may run
+/// at once. @throws InvalidArgument when the buffer's size is not the
+/// camera's, the tile lies outside it or the buffer is missing.
+void render_tile(IsoFrame const& frame, Camera const& cam, Tile tile, FrameBuffer const& out,
+                 RenderOptions const& o = {});
+void render_tile(DvrFrame const& frame, Camera const& cam, Tile tile, FrameBuffer const& out,
+                 RenderOptions const& o = {});
+
+/// The same without a prepared frame (prepared per call: slower per tile).
 void render_tile(Scene const& scene, Camera const& cam, IsoParams const& p, Tile tile, Image& out,
                  RenderOptions const& o = {});
 void render_tile(Scene const& scene, Camera const& cam, DvrParams const& p, Tile tile, Image& out,
                  RenderOptions const& o = {});
+
+/// The whole image into the host's buffer, on TBB (the calling thread's arena).
+void render(Scene const& scene, Camera const& cam, IsoParams const& p, FrameBuffer const& out,
+            RenderOptions const& o = {});
+void render(Scene const& scene, Camera const& cam, DvrParams const& p, FrameBuffer const& out,
+            RenderOptions const& o = {});
+
+/// Direct volume rendering of the host's own rays, each over its [tmin,
+/// tmax] (unit directions: distances and opacity per unit length assume
+/// them; a zero-length or NaN direction gives nothing): `rgba` receives 4
+/// floats per ray, premultiplied, no background (composite it over what the
+/// ray hits at tmax); `depth` (optional, one float per ray) the distance
+/// where the accumulated opacity first reaches `depth_at` (+inf: never).
+/// Both DVR modes, march or tree as render_dvr. Runs on TBB over chunks of
+/// rays. @throws as render_dvr.
+void integrate_rays(DvrFrame const& frame, Ray const* rays, uint64_t n, float* rgba, float* depth = nullptr,
+                    float depth_at = 0.5f, RenderOptions const& o = {});
 
 }  // namespace cellray
 

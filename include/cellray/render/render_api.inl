@@ -203,11 +203,6 @@ inline float inverse_gradient_full(DvrParams const& p, float diagonal) {
   return full > 0.f && std::isfinite(full) ? 1.f / full : std::numeric_limits<float>::infinity();
 }
 
-struct DvrSetup {
-  PreparedScene scene;
-  PreparedTf table;
-};
-
 inline void prepare_dvr(Scene const& scene, DvrParams const& p, DvrSetup& out) {
   p.tf.check();
   if (p.group_size < 1 || p.group_size > max_sample_group)
@@ -227,46 +222,107 @@ inline void prepare_dvr(Scene const& scene, DvrParams const& p, DvrSetup& out) {
   out.scene.inv_gradient_full = inverse_gradient_full(p, out.scene.diagonal);
 }
 
+inline void check_frame_buffer(Camera const& cam, FrameBuffer const& f) {
+  if (f.width != cam.width || f.height != cam.height)
+    throw InvalidArgument("frame buffer " + std::to_string(f.width) + "x" + std::to_string(f.height) +
+                          " for a " + std::to_string(cam.width) + "x" + std::to_string(cam.height) + " camera");
+  if (!f.rgba) throw InvalidArgument("frame buffer without an RGBA buffer");
+  size_t const pixel = f.format == FrameBuffer::Format::rgba8 ? 4 : 16;
+  if (f.row_bytes != 0 && f.row_bytes < pixel * size_t(f.width))
+    throw InvalidArgument("frame buffer rows of " + std::to_string(f.row_bytes) + " bytes hold fewer than " +
+                          std::to_string(f.width) + " pixels");
+  if ((f.depth_in && f.depth_in_row != 0 && f.depth_in_row < size_t(f.width)) ||
+      (f.depth_out && f.depth_out_row != 0 && f.depth_out_row < size_t(f.width)))
+    throw InvalidArgument("depth buffer rows shorter than the image width");
+  if (f.depth_out && !(f.depth_opacity > 0.f && f.depth_opacity <= 1.f))
+    throw InvalidArgument("depth opacity must be in (0, 1]");
+}
+
 }  // namespace render_detail
+
+inline IsoFrame::IsoFrame(Scene const& scene, IsoParams const& p) : p_(&p) {
+  render_detail::check_iso(p);
+  scene_ = render_detail::prepare_iso(scene, p);
+}
+
+inline DvrFrame::DvrFrame(Scene const& scene, DvrParams const& p)
+    : setup_(std::make_unique<render_detail::DvrSetup>()), p_(&p) {
+  render_detail::prepare_dvr(scene, p, *setup_);
+}
+
+inline void render_tile(IsoFrame const& f, Camera const& cam, Tile tile, FrameBuffer const& out, RenderOptions const& o) {
+  render_detail::check_camera(cam);
+  render_detail::check_tile(cam, tile);
+  render_detail::check_frame_buffer(cam, out);
+  dispatch<RenderTileEntry>(o.isa, f.prepared(), cam, f.params(), o, tile, out);
+}
+
+inline void render_tile(DvrFrame const& f, Camera const& cam, Tile tile, FrameBuffer const& out, RenderOptions const& o) {
+  render_detail::check_camera(cam);
+  render_detail::check_tile(cam, tile);
+  render_detail::check_frame_buffer(cam, out);
+  dispatch<RenderTileEntry>(o.isa, f.prepared(), cam, f.params(), o, tile, out);
+}
+
+inline void render(Scene const& scene, Camera const& cam, IsoParams const& p, FrameBuffer const& out,
+                   RenderOptions const& o) {
+  render_detail::check_camera(cam);
+  render_detail::check_frame_buffer(cam, out);
+  IsoFrame const f(scene, p);
+  render_detail::for_tiles(cam, o.tile_size, [&](Tile const& t) {
+    dispatch<RenderTileEntry>(o.isa, f.prepared(), cam, p, o, t, out);
+  });
+}
+
+inline void render(Scene const& scene, Camera const& cam, DvrParams const& p, FrameBuffer const& out,
+                   RenderOptions const& o) {
+  render_detail::check_camera(cam);
+  render_detail::check_frame_buffer(cam, out);
+  DvrFrame const f(scene, p);
+  render_detail::for_tiles(cam, o.tile_size, [&](Tile const& t) {
+    dispatch<RenderTileEntry>(o.isa, f.prepared(), cam, p, o, t, out);
+  });
+}
 
 inline Image render_iso(Scene const& scene, Camera const& cam, IsoParams const& p, RenderOptions const& o) {
   render_detail::check_camera(cam);
-  render_detail::check_iso(p);
-  PreparedScene const s = render_detail::prepare_iso(scene, p);
   Image img(cam.width, cam.height);
-  render_detail::for_tiles(cam, o.tile_size, [&](Tile const& t) { dispatch<RenderTileEntry>(o.isa, s, cam, p, o, t, img); });
+  render(scene, cam, p, FrameBuffer::of(img), o);
   return img;
 }
 
 inline Image render_dvr(Scene const& scene, Camera const& cam, DvrParams const& p, RenderOptions const& o) {
   render_detail::check_camera(cam);
-  render_detail::DvrSetup setup;
-  render_detail::prepare_dvr(scene, p, setup);
   Image img(cam.width, cam.height);
-  render_detail::for_tiles(cam, o.tile_size, [&](Tile const& t) {
-    dispatch<RenderTileEntry>(o.isa, setup.scene, cam, p, o, t, img);
-  });
+  render(scene, cam, p, FrameBuffer::of(img), o);
   return img;
 }
 
 inline void render_tile(Scene const& scene, Camera const& cam, IsoParams const& p, Tile tile, Image& out,
                         RenderOptions const& o) {
-  render_detail::check_camera(cam);
-  render_detail::check_tile(cam, tile);
-  render_detail::check_iso(p);
   if (out.width != cam.width || out.height != cam.height) throw InvalidArgument("image size differs from the camera's");
-  PreparedScene const s = render_detail::prepare_iso(scene, p);
-  dispatch<RenderTileEntry>(o.isa, s, cam, p, o, tile, out);
+  render_tile(IsoFrame(scene, p), cam, tile, FrameBuffer::of(out), o);
 }
 
 inline void render_tile(Scene const& scene, Camera const& cam, DvrParams const& p, Tile tile, Image& out,
                         RenderOptions const& o) {
-  render_detail::check_camera(cam);
-  render_detail::check_tile(cam, tile);
   if (out.width != cam.width || out.height != cam.height) throw InvalidArgument("image size differs from the camera's");
-  render_detail::DvrSetup setup;
-  render_detail::prepare_dvr(scene, p, setup);
-  dispatch<RenderTileEntry>(o.isa, setup.scene, cam, p, o, tile, out);
+  render_tile(DvrFrame(scene, p), cam, tile, FrameBuffer::of(out), o);
+}
+
+inline void integrate_rays(DvrFrame const& f, Ray const* rays, uint64_t n, float* rgba, float* depth, float depth_at,
+                           RenderOptions const& o) {
+  if (n == 0) return;
+  if (!rays || !rgba) throw InvalidArgument("integrate_rays: no rays or no output");
+  if (depth && !(depth_at > 0.f && depth_at <= 1.f)) throw InvalidArgument("depth opacity must be in (0, 1]");
+  constexpr uint64_t chunk = 256;  // a multiple of every packet width
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (n + chunk - 1) / chunk), [&](tbb::blocked_range<uint64_t> const& r) {
+    for (uint64_t c = r.begin(); c < r.end(); ++c) {
+      uint64_t const b = c * chunk, m = std::min(chunk, n - b);
+      dispatch<RayVolumeEntry>(o.isa, f.prepared(), f.params(), o, rays + b, m, rgba + 4 * b, depth ? depth + b : nullptr,
+                               depth_at);
+    }
+  });
 }
 
 }  // namespace cellray

@@ -313,9 +313,43 @@ inline float hash01(uint32_t a, uint32_t b) {
   return float(h >> 8) * (1.f / 16777216.f);
 }
 
+/// Row length in bytes of a frame buffer's colour (0 in the struct: tight).
+inline size_t rgba_row(FrameBuffer const& f) {
+  return f.row_bytes ? f.row_bytes : size_t(f.width) * (f.format == FrameBuffer::Format::rgba8 ? 4 : 16);
+}
+
+/// Writes premultiplied RGBA (x, y) in the buffer's format.
+inline void put_pixel(FrameBuffer const& f, int x, int y, float r, float g, float b, float a) {
+  unsigned char* row = static_cast<unsigned char*>(f.rgba) + size_t(y) * rgba_row(f);
+  float const c[4] = {r, g, b, a};
+  if (f.format == FrameBuffer::Format::rgba32f) {
+    float* q = reinterpret_cast<float*>(row + size_t(x) * 16);
+    for (int k = 0; k < 4; ++k) q[k] = c[k];
+  } else {
+    unsigned char* q = row + size_t(x) * 4;
+    for (int k = 0; k < 4; ++k) q[k] = uint8_t((c[k] > 0.f ? std::min(c[k], 1.f) : 0.f) * 255.f + 0.5f);  // NaN: 0
+  }
+}
+
+/// The host's depth at each lane's pixel (+inf without a depth buffer).
+template <class A>
+inline vfloat<A> host_depth(FrameBuffer const& f, int const (&px)[width<A>], int const (&py)[width<A>], uint32_t valid) {
+  constexpr int W = width<A>;
+  alignas(64) float d[W];
+  size_t const row = f.depth_in_row ? f.depth_in_row : size_t(f.width);
+  for (int l = 0; l < W; ++l)
+    d[l] = f.depth_in && ((valid >> l) & 1u) ? f.depth_in[size_t(py[l]) * row + size_t(px[l])]
+                                            : std::numeric_limits<float>::infinity();
+  return simd::load<A>(d);
+}
+
+inline void put_depth(FrameBuffer const& f, int x, int y, float d) {
+  f.depth_out[size_t(y) * (f.depth_out_row ? f.depth_out_row : size_t(f.width)) + size_t(x)] = d;
+}
+
 template <class A>
 void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const& p, RenderOptions const& o,
-                     Tile const& tile, Image& out) {
+                     Tile const& tile, FrameBuffer const& out) {
   constexpr int W = width<A>;
   int const threshold = o.hybrid_threshold > 0 ? o.hybrid_threshold : std::max(1, W / 4);
   IsoSet isos;
@@ -350,6 +384,9 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
       Vec3<A> const dir = ray_batch(r).dir();
       vfloat<A> color_r = zero, color_g = zero, color_b = zero, alpha = zero;
       r.tmin = zero;
+      r.tmax = host_depth<A>(out, px, py, valid);  // the host's opaque geometry hides what lies behind it
+      vfloat<A> depth(std::numeric_limits<float>::infinity());
+      vfloat<A> const depth_at(out.depth_opacity);
       uint32_t live = valid;
       if (clipping) {
         ClipSpan<A> const cs = clip_span<A>(s.clip, r, zero, r.tmax);
@@ -382,6 +419,7 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           }
           color_r = simd::load<A>(cr_), color_g = simd::load<A>(cg_), color_b = simd::load<A>(cb_);
           alpha = simd::load<A>(ca_);
+          depth = simd::select(simd::mask_from_bits<A>(capped), cs.t0, depth);
           live &= ~capped;
         }
       }
@@ -576,6 +614,7 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
         color_r = color_r + a * simd::min(simd::load<A>(base_r) * light_in + spec, one);
         color_g = color_g + a * simd::min(simd::load<A>(base_g) * light_in + spec, one);
         color_b = color_b + a * simd::min(simd::load<A>(base_b) * light_in + spec, one);
+        depth = simd::select(hit && alpha < depth_at && alpha + a >= depth_at, t, depth);
         alpha = alpha + a;
         vmask<A> const next = hit && alpha < vfloat<A>(0.99f);
         r.tmin = simd::select(next, t + simd::max(vfloat<A>(eps), vfloat<A>(1e-5f) * t), r.tmin);
@@ -586,10 +625,11 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
       auto const cg = simd::to_array<A>(color_g + rest * vfloat<A>(p.background.g));
       auto const cb = simd::to_array<A>(color_b + rest * vfloat<A>(p.background.b));
       auto const ca = simd::to_array<A>(alpha + rest);
+      auto const cd = simd::to_array<A>(depth);
       for (uint32_t bits = valid; bits; bits &= bits - 1) {
         int const l = __builtin_ctz(bits);
-        float* px_out = out.pixel(px[l], py[l]);
-        px_out[0] = cr[size_t(l)], px_out[1] = cg[size_t(l)], px_out[2] = cb[size_t(l)], px_out[3] = ca[size_t(l)];
+        put_pixel(out, px[l], py[l], cr[size_t(l)], cg[size_t(l)], cb[size_t(l)], ca[size_t(l)]);
+        if (out.depth_out) put_depth(out, px[l], py[l], cd[size_t(l)]);
       }
     }
 }
@@ -706,10 +746,11 @@ template <class A> inline PieceColor<A> piece_color(PreparedTf const& ptf, vfloa
 /// front to back in order, scalar, with exact termination.
 template <class A>
 inline void integrate_pieces(PreparedTf const& ptf, float step, float termination, FieldSegment const* seg,
-                             uint8_t const* order, int n, float from, float to, float (&col)[3], float& alpha) {
+                             uint8_t const* order, int n, float from, float to, float (&col)[3], float& alpha,
+                             float depth_at, float& depth) {
   constexpr int W = width<A>;
   constexpr int cap = 128;  // pieces per batch (a multiple of every W)
-  alignas(64) float pv[cap], pd[cap];
+  alignas(64) float pv[cap], pd[cap], pt[cap];
   alignas(64) float pr[cap], pg[cap], pb[cap], pa[cap];
   auto flush = [&](int np) {
     for (int j = np; j % W; ++j) pv[j] = ptf.lo, pd[j] = 0.f;  // padding: zero length, no opacity
@@ -720,6 +761,7 @@ inline void integrate_pieces(PreparedTf const& ptf, float step, float terminatio
     for (int j = 0; j < np && alpha < termination; ++j) {
       float const w = std::min((1.f - alpha) * pa[j], termination - alpha);  // exact termination
       col[0] += w * pr[j], col[1] += w * pg[j], col[2] += w * pb[j];
+      if (alpha < depth_at && alpha + w >= depth_at) depth = pt[j];
       alpha += w;
     }
   };
@@ -732,7 +774,8 @@ inline void integrate_pieces(PreparedTf const& ptf, float step, float terminatio
     int const pieces = std::max(1, int(std::ceil((e - a) / step)));
     float const d = (e - a) / float(pieces);
     for (int i = 0; i < pieces; ++i) {
-      pv[np] = fs.value_at(fs.lambda(a + (float(i) + 0.5f) * d));
+      pt[np] = a + (float(i) + 0.5f) * d;
+      pv[np] = fs.value_at(fs.lambda(pt[np]));
       pd[np++] = d;
       if (np == cap) {
         flush(np), np = 0;
@@ -761,9 +804,10 @@ template <class A>
 void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> const& inside,
                         vfloat<A> const& t_enter, vfloat<A> const& t_exit, DvrParams const& p, Traversal how,
                         int threshold, SegmentScratch<A>& scratch, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb,
-                        vfloat<A>& ca) {
+                        vfloat<A>& ca, float depth_at, vfloat<A>& depth) {
   constexpr int W = width<A>;
   PreparedTf const& ptf = *s.tf;
+  auto depth_lane = simd::to_array<A>(depth);
   float const last_entry = float(ptf.r.size() - 1) - 1e-3f;
   auto lerp_entry = [](std::vector<float> const& t, int i, float f) { return t[size_t(i)] + f * (t[size_t(i) + 1] - t[size_t(i)]); };
   bool const shade = p.shading.enabled;
@@ -829,7 +873,7 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
       float prev = t_cur[l];
       if (!shade)  // W pieces at a time; gradient shading below, piece by piece
         integrate_pieces<A>(ptf, s.step, p.termination, seg_of[l], order_of[l], seg_count[l], t_cur[l], end[l], col[l],
-                            alpha[l]);
+                            alpha[l], depth_at, depth_lane[size_t(l)]);
       for (int si = 0; si < seg_count[l] && shade; ++si) {
         FieldSegment const& fs = seg_of[l][order_of[l] ? order_of[l][si] : si];
         CellSegment const& sg = fs.s;
@@ -857,6 +901,7 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
           float const ad = 1.f - std::exp(lt * d);
           float const w = std::min((1.f - alpha[l]) * ad, p.termination - alpha[l]);  // exact termination
           col[l][0] += w * c.r, col[l][1] += w * c.g, col[l][2] += w * c.b;
+          if (alpha[l] < depth_at && alpha[l] + w >= depth_at) depth_lane[size_t(l)] = a + (float(i) + 0.5f) * d;
           alpha[l] += w;
         }
         prev = e;
@@ -870,6 +915,7 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
   alignas(64) float o[4][W];
   for (int l = 0; l < W; ++l) o[0][l] = col[l][0], o[1][l] = col[l][1], o[2][l] = col[l][2], o[3][l] = alpha[l];
   cr = simd::load<A>(o[0]), cg = simd::load<A>(o[1]), cb = simd::load<A>(o[2]), ca = simd::load<A>(o[3]);
+  depth = simd::load<A>(depth_lane.data());
 }
 
 /// Cell-segment DVR by marching (traverse/march.hpp): the same segments as
@@ -880,7 +926,8 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
 template <class A>
 void integrate_march(PreparedScene const& s, PreparedPart const& part, RayPacket<A> const& r, vmask<A> const& inside,
                      vfloat<A> const& t_enter, vfloat<A> const& t_exit, DvrParams const& p, Traversal how,
-                     int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca) {
+                     int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca, float depth_at,
+                     vfloat<A>& depth) {
   PreparedTf const& ptf = *s.tf;
   bool const shade = p.shading.enabled;
   vfloat<A> const zero(0.f), one(1.f), half(0.5f), term(p.termination), inv_step(1.f / s.step);
@@ -915,6 +962,7 @@ void integrate_march(PreparedScene const& s, PreparedPart const& part, RayPacket
         if (shade) shade_batch<A>(p.shading, s.inv_gradient_full, st.gradient.x, st.gradient.y, st.gradient.z, r, c.r, c.g, c.b);
         vfloat<A> const w = simd::select(on, simd::min((one - ca) * c.a, term - ca), zero);  // exact termination
         cr = cr + w * c.r, cg = cg + w * c.g, cb = cb + w * c.b;
+        depth = simd::select(ca < vfloat<A>(depth_at) && ca + w >= vfloat<A>(depth_at), tm, depth);
         ca = ca + w;
       }
     }
@@ -934,7 +982,8 @@ void integrate_march(PreparedScene const& s, PreparedPart const& part, RayPacket
 template <class A>
 void integrate_samples(PreparedScene const& s, RayPacket<A> const& r, vmask<A> const& inside,
                        vfloat<A> const& t_enter, vfloat<A> const& t_exit, DvrParams const& p, Traversal how,
-                       int threshold, SampleCull* cull, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca) {
+                       int threshold, SampleCull* cull, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca,
+                       float depth_at, vfloat<A>& depth) {
   constexpr int W = width<A>;
   constexpr float nan = std::numeric_limits<float>::quiet_NaN();
   PreparedTf const& ptf = *s.tf;
@@ -968,6 +1017,7 @@ void integrate_samples(PreparedScene const& s, RayPacket<A> const& r, vmask<A> c
     // counts only up to there (its colour is constant over its step), as in
     // the reference. Counting it in full is an error of first order in the step.
     vfloat<A> const w = simd::select(lanes, simd::min((one - ca) * a, simd::max(term - ca, vfloat<A>(0.f))), vfloat<A>(0.f));
+    depth = simd::select(ca < vfloat<A>(depth_at) && ca + w >= vfloat<A>(depth_at), pt, depth);
     cr = cr + w * pr, cg = cg + w * pg, cb = cb + w * pb, ca = ca + w;
   };
   vfloat<A> t0 = t_enter + vfloat<A>(half);
@@ -1032,51 +1082,102 @@ void integrate_samples(PreparedScene const& s, RayPacket<A> const& r, vmask<A> c
   if (simd::any(pend)) composite(pend, pend);
 }
 
+/// What DVR reuses from packet to packet: segment queries, per-part sample
+/// culling (cell sizes differ; measured once per tile or chunk of rays).
+template <class A> struct DvrScratch {
+  SegmentScratch<A> segments;
+  std::vector<SampleCull> sample_cull;
+  explicit DvrScratch(PreparedScene const& s) : sample_cull(s.parts.size()) {}
+};
+
+/// One packet of DVR rays over [t_lo, t_hi] per lane (camera rays: [0, the
+/// host's depth]; host rays: their own interval), narrowed to the scene's
+/// box and the clip region: premultiplied colour and opacity, and where the
+/// opacity first reaches `depth_at` (+inf: never).
 template <class A>
-void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const& p, RenderOptions const& o,
-                     Tile const& tile, Image& out) {
+void dvr_packet(PreparedScene const& s, DvrParams const& p, RenderOptions const& o, RayPacket<A> const& r,
+                vmask<A> lanes, vfloat<A> const& t_lo, vfloat<A> const& t_hi, DvrScratch<A>& scratch, vfloat<A>& cr,
+                vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca, float depth_at, vfloat<A>& depth) {
   constexpr int W = width<A>;
   int const threshold = o.hybrid_threshold > 0 ? o.hybrid_threshold : std::max(1, W / 4);
-  SegmentScratch<A> scratch;
-  std::vector<SampleCull> sample_cull(s.parts.size());  // per part: cell sizes differ; measured once per tile
   bool const march = s.parts.size() == 1 && s.parts[0].neighbours;
+  // The part of each ray inside the scene's bounds. An empty scene's box
+  // (lo = +inf, hi = -inf) passes the slab test for every t: no ray is
+  // inside it (else the sample march never ends).
+  vfloat<A> t_enter;
+  vmask<A> inside = (s.lo.x <= s.hi.x ? lanes : simd::no_lanes<A>()) &&
+                    box_hit(r, &s.lo.x, &s.hi.x, t_lo, simd::min(t_hi, vfloat<A>(std::numeric_limits<float>::max())),
+                            t_enter);
+  vfloat<A> t_exit = simd::min(scene_exit(r, s), t_hi);
+  t_enter = simd::max(t_enter, t_lo);
+  if (s.clip.count > 0) {
+    ClipSpan<A> const cs = clip_span<A>(s.clip, r, t_enter, t_exit);
+    t_enter = simd::select(inside, cs.t0, t_enter), t_exit = simd::select(inside, cs.t1, t_exit);
+  }
+  inside = inside && t_enter < t_exit;
+  cr = cg = cb = ca = vfloat<A>(0.f);
+  depth = vfloat<A>(std::numeric_limits<float>::infinity());
+  if (simd::none(inside)) return;
+  if (p.mode == DvrMode::samples)
+    integrate_samples<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, scratch.sample_cull.data(), cr, cg,
+                         cb, ca, depth_at, depth);
+  else if (march)
+    integrate_march<A>(s, s.parts[0], r, inside, t_enter, t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at,
+                       depth);
+  else
+    integrate_segments<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, scratch.segments, cr, cg, cb, ca,
+                          depth_at, depth);
+}
+
+template <class A>
+void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const& p, RenderOptions const& o,
+                     Tile const& tile, FrameBuffer const& out) {
+  constexpr int W = width<A>;
+  DvrScratch<A> scratch(s);
   for (int by = tile.y0; by < tile.y0 + tile.h; by += block_h<A>)
     for (int bx = tile.x0; bx < tile.x0 + tile.w; bx += block_w<A>) {
       int px[W], py[W];
       uint32_t valid;
-      RayPacket<A> r = camera_packet<A>(cam, tile, bx, by, px, py, valid);
-      // The part of each ray inside the scene's bounds.
-      vfloat<A> t_enter;
-      // An empty scene's box (lo = +inf, hi = -inf) passes the slab test for
-      // every t: no ray is inside it (else the sample march never ends).
-      vmask<A> inside = simd::mask_from_bits<A>(s.lo.x <= s.hi.x ? valid : 0u) &&
-                        box_hit(r, &s.lo.x, &s.hi.x, vfloat<A>(0.f), vfloat<A>(std::numeric_limits<float>::max()), t_enter);
-      vfloat<A> t_exit = scene_exit(r, s);
-      if (s.clip.count > 0) {
-        ClipSpan<A> const cs = clip_span<A>(s.clip, r, t_enter, t_exit);
-        t_enter = simd::select(inside, cs.t0, t_enter), t_exit = simd::select(inside, cs.t1, t_exit);
-        inside = inside && cs.t0 < cs.t1;
-      }
-      vfloat<A> cr(0.f), cg(0.f), cb(0.f), ca(0.f);
-      if (p.mode == DvrMode::samples)
-        integrate_samples<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, sample_cull.data(), cr, cg, cb,
-                             ca);
-      else if (march)
-        integrate_march<A>(s, s.parts[0], r, inside, t_enter, t_exit, p, o.traversal, threshold, cr, cg, cb, ca);
-      else
-        integrate_segments<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, scratch, cr, cg, cb, ca);
+      RayPacket<A> const r = camera_packet<A>(cam, tile, bx, by, px, py, valid);
+      vfloat<A> cr, cg, cb, ca, depth;
+      dvr_packet<A>(s, p, o, r, simd::mask_from_bits<A>(valid), vfloat<A>(0.f), host_depth<A>(out, px, py, valid),
+                    scratch, cr, cg, cb, ca, out.depth_opacity, depth);
       auto const ar = simd::to_array<A>(cr), ag = simd::to_array<A>(cg), ab = simd::to_array<A>(cb),
-                 aa = simd::to_array<A>(ca);
+                 aa = simd::to_array<A>(ca), ad = simd::to_array<A>(depth);
       for (int l = 0; l < W; ++l) {
         if (!((valid >> l) & 1u)) continue;
-        float* q = out.pixel(px[l], py[l]);
         float const rest = (1.f - aa[l]) * p.background.a;
-        q[0] = ar[l] + rest * p.background.r;
-        q[1] = ag[l] + rest * p.background.g;
-        q[2] = ab[l] + rest * p.background.b;
-        q[3] = aa[l] + rest;
+        put_pixel(out, px[l], py[l], ar[l] + rest * p.background.r, ag[l] + rest * p.background.g,
+                  ab[l] + rest * p.background.b, aa[l] + rest);
+        if (out.depth_out) put_depth(out, px[l], py[l], ad[l]);
       }
     }
+}
+
+/// Host rays, W at a time (see RayVolumeEntry).
+template <class A>
+void integrate_host_rays(PreparedScene const& s, DvrParams const& p, RenderOptions const& o, Ray const* rays,
+                         uint64_t n, float* rgba, float* depth_out, float depth_at) {
+  constexpr int W = width<A>;
+  DvrScratch<A> scratch(s);
+  for (uint64_t base = 0; base < n; base += W) {
+    int const cnt = int(std::min<uint64_t>(W, n - base));
+    RayPacket<A> const r = load_rays<A>(rays + base, cnt);
+    // A ray without a usable direction or interval gives nothing.
+    vfloat<A> const len2 = r.dx * r.dx + r.dy * r.dy + r.dz * r.dz;
+    vmask<A> const lanes = simd::mask_from_bits<A>(cnt >= 32 ? ~0u : (1u << cnt) - 1u) && len2 > vfloat<A>(0.f) &&
+                           len2 < vfloat<A>(std::numeric_limits<float>::infinity()) && r.tmin <= r.tmax;
+    vfloat<A> cr, cg, cb, ca, depth;
+    dvr_packet<A>(s, p, o, r, lanes, simd::max(r.tmin, vfloat<A>(0.f)), r.tmax, scratch, cr, cg, cb, ca, depth_at,
+                  depth);
+    auto const ar = simd::to_array<A>(cr), ag = simd::to_array<A>(cg), ab = simd::to_array<A>(cb),
+               aa = simd::to_array<A>(ca), ad = simd::to_array<A>(depth);
+    for (int l = 0; l < cnt; ++l) {
+      float* q = rgba + 4 * (base + uint64_t(l));
+      q[0] = ar[size_t(l)], q[1] = ag[size_t(l)], q[2] = ab[size_t(l)], q[3] = aa[size_t(l)];
+      if (depth_out) depth_out[base + uint64_t(l)] = ad[size_t(l)];
+    }
+  }
 }
 
 }  // namespace impl
@@ -1084,13 +1185,18 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
 
 template <class Arch>
 void RenderTileEntry<Arch>::run(PreparedScene const& s, Camera const& cam, IsoParams const& p, RenderOptions const& o,
-                                Tile tile, Image& out) {
+                                Tile tile, FrameBuffer const& out) {
   impl::render_iso_tile<Arch>(s, cam, p, o, tile, out);
 }
 template <class Arch>
 void RenderTileEntry<Arch>::run(PreparedScene const& s, Camera const& cam, DvrParams const& p, RenderOptions const& o,
-                                Tile tile, Image& out) {
+                                Tile tile, FrameBuffer const& out) {
   impl::render_dvr_tile<Arch>(s, cam, p, o, tile, out);
+}
+template <class Arch>
+void RayVolumeEntry<Arch>::run(PreparedScene const& s, DvrParams const& p, RenderOptions const& o, Ray const* rays,
+                               uint64_t n, float* rgba, float* depth, float depth_at) {
+  impl::integrate_host_rays<Arch>(s, p, o, rays, n, rgba, depth, depth_at);
 }
 
 }  // namespace cellray
