@@ -248,6 +248,56 @@ TEST_CASE("DVR of host rays: camera rays give the image; an interval ends them a
   CHECK(worst < 2.0 / 255);
 }
 
+TEST_CASE("scene-level first hits and point samples over several parts, on TBB", "[render][host][isa]") {
+  auto const t = generate_tets(6 * 6 * 6 * 6, 1);
+  auto h = generate_hexes(6 * 6 * 6, 1);
+  for (size_t v = 0; v < h.xyz.size(); v += 3) h.xyz[v] += 3.f;  // hexes in [2, 4] x [-1, 1]^2
+  TetMesh const tm = t.mesh();
+  HexMesh const hm = h.mesh();
+  MinMaxBvh const tb = build_minmax_bvh(tm), hb = build_minmax_bvh(hm);
+  Scene scene(tm, tb);
+  scene.hexes.push_back({hm, &hb, nullptr});
+  RenderOptions const ro = test::isa_options();
+  std::vector<float> xyz;
+  for (int i = 0; i < 2000; ++i) {
+    float const u = float(i) / 2000.f;
+    xyz.insert(xyz.end(), {-1.5f + 7.f * u, 0.9f * std::sin(37.f * u), 0.9f * std::cos(53.f * u)});
+  }
+  std::vector<float> const both = sample_points(scene, xyz, ro);
+  std::vector<float> const in_t = sample_points(TreeView(tb, tb.ranges()), tm, xyz, test::isa());
+  std::vector<float> const in_h = sample_points(TreeView(hb, hb.ranges()), hm, xyz, test::isa());
+  int inside = 0;
+  for (size_t i = 0; i < both.size(); ++i) {
+    float const want = in_t[i] == in_t[i] ? in_t[i] : in_h[i];
+    CHECK(((both[i] == want) || (both[i] != both[i] && want != want)));
+    inside += both[i] == both[i];
+  }
+  CHECK(inside > 1000);
+
+  IsoParams ip;
+  ip.surfaces = {{0.4f}, {0.6f}};
+  std::vector<Ray> rays;
+  for (int i = 0; i < 500; ++i) {
+    float const y = -0.9f + 1.8f * float(i % 25) / 24.f, z = -0.9f + 1.8f * float(i / 25) / 19.f;
+    float const x0 = i % 2 ? -3.f : 1.5f;  // odd rays cross the tets first, even ones start between the meshes
+    rays.push_back(Ray{{x0, y, z}, 0.f, {1.f, 0.f, 0.f}, 100.f});
+  }
+  std::vector<SurfaceHit> const hits = first_hits(scene, rays, ip, ro);
+  IsoQuery q;
+  q.isos.count = 2, q.isos.values[0] = 0.4f, q.isos.values[1] = 0.6f;
+  std::vector<SurfaceHit> const ht = first_hits(TreeView(tb, tb.ranges()), tm, rays, q, test::isa());
+  std::vector<SurfaceHit> const hh = first_hits(TreeView(hb, hb.ranges()), hm, rays, q, test::isa());
+  int from_hexes = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    bool const tets_first = ht[i].t <= hh[i].t;
+    SurfaceHit const& want = tets_first ? ht[i] : hh[i];
+    CHECK(hits[i].t == want.t);
+    if (hits[i].hit()) CHECK(hits[i].piece == (tets_first ? 0u : 1u));
+    from_hexes += hits[i].hit() && !tets_first;
+  }
+  CHECK(from_hexes > 50);
+}
+
 TEST_CASE("bad frame buffers are refused", "[render][host]") {
   Fixture const f;
   IsoParams const ip = f.iso();

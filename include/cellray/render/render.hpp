@@ -22,6 +22,7 @@
 #include "../dispatch/dispatch.hpp"
 #include "../mesh/cell_mesh.hpp"
 #include "../mesh/neighbours.hpp"
+#include "../traverse/queries.hpp"
 #include "../traverse/ray.hpp"
 #include "camera.hpp"
 #include "clip.hpp"
@@ -323,6 +324,18 @@ void render(Scene const& scene, Camera const& cam, IsoParams const& p, FrameBuff
             RenderOptions const& o = {});
 void render(Scene const& scene, Camera const& cam, DvrParams const& p, FrameBuffer const& out,
             RenderOptions const& o = {});
+
+/// First isosurface hit of each host ray in [tmin, tmax] over every part of
+/// the scene (the nearest of the parts'; `piece` is the part: tets first,
+/// then hexes, as listed), the isovalues, roots and normals of `p` (smooth
+/// normals are answered analytically here), on TBB. NaN cells are never hit.
+std::vector<SurfaceHit> first_hits(Scene const& scene, std::vector<Ray> const& rays, IsoParams const& p,
+                                   RenderOptions const& o = {});
+
+/// The scene's field at each point (xyz triples): from the first part
+/// (tets first, then hexes) whose mesh holds it, NaN outside every part or
+/// in NaN cells; on TBB. The active array of each part's mesh.
+std::vector<float> sample_points(Scene const& scene, std::vector<float> const& xyz, RenderOptions const& o = {});
 
 /// Direct volume rendering of the host's own rays, each over its [tmin,
 /// tmax] (unit directions: distances and opacity per unit length assume

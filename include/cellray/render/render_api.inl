@@ -310,6 +310,61 @@ inline void render_tile(Scene const& scene, Camera const& cam, DvrParams const& 
   render_tile(DvrFrame(scene, p), cam, tile, FrameBuffer::of(out), o);
 }
 
+inline std::vector<SurfaceHit> first_hits(Scene const& scene, std::vector<Ray> const& rays, IsoParams const& p,
+                                          RenderOptions const& o) {
+  render_detail::check_iso(p);
+  PreparedScene const s = render_detail::prepare(scene);
+  IsoQuery q;
+  q.isos.count = int(p.surfaces.size());
+  for (int k = 0; k < q.isos.count; ++k) q.isos.values[k] = p.surfaces[size_t(k)].value;
+  q.method = p.roots;
+  q.normals = p.normals;
+  q.traversal = o.traversal;
+  q.hybrid_threshold = o.hybrid_threshold;
+  std::vector<SurfaceHit> hits(rays.size());
+  constexpr uint64_t chunk = 1024;
+  uint64_t const n = rays.size();
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (n + chunk - 1) / chunk), [&](tbb::blocked_range<uint64_t> const& r) {
+    std::vector<SurfaceHit> part_hits(chunk);
+    for (uint64_t c = r.begin(); c < r.end(); ++c) {
+      uint64_t const b = c * chunk, m = std::min(chunk, n - b);
+      for (size_t pi = 0; pi < s.parts.size(); ++pi) {
+        PreparedPart const& part = s.parts[pi];
+        if (part.tets) dispatch<FirstHitEntry>(o.isa, part.tree, *part.tets, rays.data() + b, m, q, part_hits.data());
+        else dispatch<FirstHitEntry>(o.isa, part.tree, *part.hexes, rays.data() + b, m, q, part_hits.data());
+        for (uint64_t i = 0; i < m; ++i)
+          if (part_hits[i].t < hits[b + i].t) hits[b + i] = part_hits[i], hits[b + i].piece = uint32_t(pi);
+      }
+    }
+  });
+  return hits;
+}
+
+inline std::vector<float> sample_points(Scene const& scene, std::vector<float> const& xyz, RenderOptions const& o) {
+  PreparedScene const s = render_detail::prepare(scene);
+  uint64_t const n = xyz.size() / 3;
+  std::vector<float> out(n, std::numeric_limits<float>::quiet_NaN());
+  constexpr uint64_t chunk = 1024;
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (n + chunk - 1) / chunk), [&](tbb::blocked_range<uint64_t> const& r) {
+    std::vector<Ray> rays(chunk);
+    std::vector<float> v(chunk);
+    for (uint64_t c = r.begin(); c < r.end(); ++c) {
+      uint64_t const b = c * chunk, m = std::min(chunk, n - b);
+      for (uint64_t i = 0; i < m; ++i)
+        rays[i] = Ray{{xyz[3 * (b + i)], xyz[3 * (b + i) + 1], xyz[3 * (b + i) + 2]}, 0.f, {1.f, 0.f, 0.f}, 0.f};
+      for (PreparedPart const& part : s.parts) {
+        if (part.tets)
+          dispatch<SampleEntry>(o.isa, part.tree, *part.tets, rays.data(), m, 0.f, 1, 1, o.traversal, ValueWindows{}, v.data());
+        else
+          dispatch<SampleEntry>(o.isa, part.tree, *part.hexes, rays.data(), m, 0.f, 1, 1, o.traversal, ValueWindows{}, v.data());
+        for (uint64_t i = 0; i < m; ++i)
+          if (!(out[b + i] == out[b + i])) out[b + i] = v[i];
+      }
+    }
+  });
+  return out;
+}
+
 inline void integrate_rays(DvrFrame const& f, Ray const* rays, uint64_t n, float* rgba, float* depth, float depth_at,
                            RenderOptions const& o) {
   if (n == 0) return;
