@@ -3,7 +3,8 @@
 # only those missing. Extra package names may be passed as arguments.
 set -euo pipefail
 pkgs=(cmake make g++ clang-14 binutils libxsimd-dev libtbb-dev libglm-dev libstb-dev catch2
-      libbenchmark-dev libpugixml-dev zlib1g-dev libcli11-dev nlohmann-json3-dev fonts-dejavu-core "$@")
+      libbenchmark-dev libpugixml-dev zlib1g-dev libcli11-dev nlohmann-json3-dev fonts-dejavu-core
+      libembree-dev "$@")
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -11,7 +11,7 @@ for f in openfoam/component8_heat_608k.vtk openfoam/boxturb48_dns.vtk vtk-data/d
 done
 ./scripts/install-deps.sh
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
-cmake --build build -j"$(nproc)" --target cellray-render
+cmake --build build -j"$(nproc)" --target cellray-render example_04_embree_host
 r=./build/examples/cellray-render
 out=docs/images
 mkdir -p "$out"
@@ -39,3 +39,6 @@ $r "$d"/openfoam/component8_heat_608k.vtk --array T --iso 330,423,520 --iso-opac
    --clip 0,172,0,0,0,1 --clip-caps --color-map inferno --size 480x360 -o $out/component8_clip_caps.png
 $r "$d"/openfoam/component8_heat_608k.vtk --array T --mode dvr --tf inferno --clip 0,172,0,0,0,1 \
    --size 480x360 -o $out/component8_clip_dvr.png
+# The Embree host example (examples/04_embree_host.cpp): its generated mesh.
+./build/examples/04_embree_host $out/embree_host.png
+./build/examples/04_embree_host --iso $out/embree_host_iso.png

@@ -15,6 +15,13 @@
 // differing pixel lies in [X0, X1) x [Y0, Y1); coordinates are fractions of
 // the width and height (an overlay drawn into one region, nothing else
 // changed).
+// png_check --occluded GEOMETRY LAYER COMPOSITE MIN_HIDDEN MIN_SHOWN: a
+// host's opaque geometry, a layer drawn alone (alpha: its coverage without
+// the geometry) and the two composited, one size. A pixel is "changed" when
+// COMPOSITE differs from GEOMETRY by more than 2/255 in some channel; exits
+// 0 when at least MIN_HIDDEN pixels where the layer is clearly there (alpha
+// >= 64/255) are unchanged (the geometry is in front of it), at least
+// MIN_SHOWN pixels changed, and no pixel changed where the layer has alpha 0.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -122,7 +129,43 @@ int diff_within(char const* a_path, char const* b_path, double fx0, double fy0, 
   return rc;
 }
 
+int occluded(char const* g_path, char const* l_path, char const* c_path, long min_hidden, long min_shown) {
+  int w[3] = {}, h[3] = {}, ch = 0;
+  char const* paths[3] = {g_path, l_path, c_path};
+  unsigned char* px[3] = {};
+  int rc = 0;
+  for (int k = 0; k < 3; ++k)
+    if (!(px[k] = stbi_load(paths[k], &w[k], &h[k], &ch, 4))) {
+      std::printf("cannot decode %s\n", paths[k]);
+      rc = 1;
+    }
+  if (!rc && (w[0] != w[1] || w[0] != w[2] || h[0] != h[1] || h[0] != h[2])) {
+    std::printf("%s, %s and %s differ in size\n", g_path, l_path, c_path);
+    rc = 1;
+  }
+  if (!rc) {
+    long hidden = 0, shown = 0, stray = 0;
+    for (long i = 0; i < long(w[0]) * h[0]; ++i) {
+      bool changed = false;
+      for (int k = 0; k < 4; ++k) changed |= std::abs(int(px[0][4 * i + k]) - int(px[2][4 * i + k])) > 2;
+      int const alpha = px[1][4 * i + 3];
+      hidden += !changed && alpha >= 64;
+      shown += changed;
+      stray += changed && alpha == 0;
+    }
+    std::printf("%s: %ld pixels hidden by the geometry (at least %ld wanted), %ld changed by the layer "
+                "(at least %ld), %ld changed where the layer is empty (none allowed)\n",
+                c_path, hidden, min_hidden, shown, min_shown, stray);
+    rc = hidden < min_hidden || shown < min_shown || stray > 0;
+  }
+  for (auto* p : px)
+    if (p) stbi_image_free(p);
+  return rc;
+}
+
 int main(int argc, char** argv) {
+  if (argc == 7 && std::strcmp(argv[1], "--occluded") == 0)
+    return occluded(argv[2], argv[3], argv[4], std::atol(argv[5]), std::atol(argv[6]));
   if (argc == 5 && std::strcmp(argv[1], "--extent") == 0) return extent(argv[2], std::atof(argv[3]), std::atof(argv[4]));
   if (argc == 9 && std::strcmp(argv[1], "--diff-within") == 0)
     return diff_within(argv[2], argv[3], std::atof(argv[4]), std::atof(argv[5]), std::atof(argv[6]), std::atof(argv[7]),
