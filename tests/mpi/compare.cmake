@@ -1,0 +1,21 @@
+# Runs cellray-render and `mpirun -np NP cellray-mpi-render` with the same
+# flags and compares the two PNGs (png_rmse: RMSE and largest difference in
+# 8-bit levels). -D: RENDER MPI_RENDER MPIEXEC NP PNG_RMSE OUT FLAGS (a
+# ;-list) MAX_RMSE MAX_DIFF [MPI_FLAGS (;-list: mpirun's own)].
+file(MAKE_DIRECTORY ${OUT})
+set(single ${OUT}/single.png)
+set(multi ${OUT}/mpi_np${NP}.png)
+execute_process(COMMAND ${RENDER} ${FLAGS} -o ${single} RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "cellray-render failed (${rc}): ${err}")
+endif()
+execute_process(COMMAND ${MPIEXEC} ${MPI_FLAGS} -np ${NP} ${MPI_RENDER} ${FLAGS} -o ${multi}
+  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 240)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "mpirun -np ${NP} cellray-mpi-render failed (${rc}): ${out} ${err}")
+endif()
+execute_process(COMMAND ${PNG_RMSE} ${single} ${multi} ${MAX_RMSE} ${MAX_DIFF} RESULT_VARIABLE rc OUTPUT_VARIABLE out)
+message(STATUS "${out}")
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "the images differ: ${out}")
+endif()
