@@ -4,7 +4,9 @@
 set -euo pipefail
 pkgs=(cmake make g++ clang-14 binutils libxsimd-dev libtbb-dev libglm-dev libstb-dev catch2
       libbenchmark-dev libpugixml-dev zlib1g-dev libcli11-dev nlohmann-json3-dev fonts-dejavu-core
-      libembree-dev "$@")
+      libembree-dev
+      # cellray-mpi-render and its tests: MPI + IceT 2.2 inside ParaView 5.11 (apt: ~2.5 min)
+      libopenmpi-dev openmpi-bin paraview-dev "$@")
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
