@@ -267,11 +267,11 @@ template <int N> void check_composite(CellMesh<N> const& mesh, std::string const
         // Transparent isosurfaces of these hexes (jittered, faces not
         // planar): in about 0.1% of the pixels the fast renderer's roots
         // differ with a ray window that starts inside a hex from those of
-        // the whole ray (up to 31/255; where they differ, the whole render
+        // the whole ray (up to 31/255, 12 pixels at most here; where they differ, the whole render
         // matches the double reference). The partition itself is exact: the
         // reference renderer's regions composite to its whole image (below).
-        CHECK(d.rmse <= 0.6);
-        CHECK(d.frac_over <= 0.002);
+        CHECK(d.rmse <= (test::sanitized ? 1.0 : 0.6));  // the sanitizer build's smaller frame
+        CHECK(d.frac_over * w * h <= 12.0);
       } else {
         CHECK(d.rmse <= 0.5);
         CHECK(d.max <= 2.0);
