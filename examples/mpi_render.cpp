@@ -69,20 +69,13 @@
 #include <cellray/render/render.hpp>
 #include <cellray/render/transfer_function.hpp>
 
+#include "cli_common.hpp"
 #include "framing.hpp"
 
 namespace {
 
 using namespace cellray;
-using Clock = std::chrono::steady_clock;
-
-enum ExitCode { exit_ok = 0, exit_other = 1, exit_usage = 2, exit_io = 3, exit_invalid_mesh = 4 };
-
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+using namespace cellray_cli;
 
 struct Options {
   std::string mesh_path;
@@ -109,50 +102,6 @@ struct Options {
   bool shadows = false;
   int ao = 0;
 };
-
-std::vector<float> parse_floats(std::string const& text, std::string const& flag) {
-  std::vector<float> out;
-  std::string item;
-  std::istringstream s(text);
-  while (std::getline(s, item, ',')) {
-    size_t used = 0;
-    float v = 0.f;
-    try {
-      v = std::stof(item, &used);
-    } catch (std::exception const&) {
-      used = 0;
-    }
-    if (used == 0 || used != item.size() || !std::isfinite(v))
-      throw UsageError(flag + ": '" + item + "' is not a finite number");
-    out.push_back(v);
-  }
-  if (out.empty()) throw UsageError(flag + ": expected a comma-separated list of numbers");
-  return out;
-}
-
-glm::vec3 parse_vec3(std::string const& text, std::string const& flag) {
-  auto const v = parse_floats(text, flag);
-  if (v.size() != 3) throw UsageError(flag + ": expected X,Y,Z, got '" + text + "'");
-  return {v[0], v[1], v[2]};
-}
-
-glm::vec4 parse_background(std::string const& text) {
-  if (text == "white") return {1.f, 1.f, 1.f, 1.f};
-  if (text == "black") return {0.f, 0.f, 0.f, 1.f};
-  if (text == "transparent") return {0.f, 0.f, 0.f, 0.f};
-  auto const v = parse_floats(text, "--background");
-  if (v.size() != 3 && v.size() != 4) throw UsageError("--background: expected R,G,B or R,G,B,A in [0, 1]");
-  for (float c : v)
-    if (c < 0.f || c > 1.f) throw UsageError("--background: components must lie in [0, 1]");
-  return {v[0], v[1], v[2], v.size() == 4 ? v[3] : 1.f};
-}
-
-glm::vec3 iso_color(size_t i) {  // cellray-render's palette
-  static glm::vec3 const palette[] = {{0.31f, 0.57f, 0.85f}, {0.96f, 0.62f, 0.25f}, {0.85f, 0.33f, 0.35f},
-                                      {0.42f, 0.75f, 0.45f}, {0.65f, 0.50f, 0.80f}, {0.95f, 0.85f, 0.35f},
-                                      {0.45f, 0.80f, 0.82f}, {0.80f, 0.55f, 0.45f}};
-  return palette[i % (sizeof(palette) / sizeof(palette[0]))];
-}
 
 /// The error of one rank, carried to the collective check.
 struct Failure {
@@ -232,18 +181,7 @@ void set_up(Options const& o, int rank, int ranks, Setup& s) {
                      ": shadow and ambient-occlusion rays need the whole mesh, which no rank holds alone "
                      "(render them with cellray-render)");
   int width = 0, height = 0;
-  {
-    auto const x = o.size.find('x');
-    char* end = nullptr;
-    if (x != std::string::npos) {
-      width = int(std::strtol(o.size.c_str(), &end, 10));
-      if (end != o.size.c_str() + x) width = 0;
-      height = int(std::strtol(o.size.c_str() + x + 1, &end, 10));
-      if (*end != '\0') height = 0;
-    }
-    if (width < 1 || height < 1 || width > 32768 || height > 32768)
-      throw UsageError("--size: expected WxH with both in [1, 32768], got '" + o.size + "'");
-  }
+  parse_size(o.size, width, height);
   if (image_format(o.out).empty()) throw UsageError("-o: '" + o.out + "' must end in .png or .ppm");
   if (o.mode != "iso" && o.mode != "dvr") throw UsageError("--mode: iso or dvr, got '" + o.mode + "'");
 

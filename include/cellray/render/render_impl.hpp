@@ -184,37 +184,36 @@ template <int N> inline CellWeights<N> cell_weights(CellMesh<N> const& mesh, uin
   return out;
 }
 
-/// The smooth shading normal at hit point `p` in the hit cell of a part
-/// (GradientMethod::smooth), facing against `dir`; the cell's analytic
-/// normal where the interpolated vertex gradient is NaN or zero.
-inline glm::vec3 smooth_normal(PreparedPart const& part, uint64_t slot, glm::vec3 const& p, glm::vec3 const& dir) {
+/// At an isosurface hit `p` in the hit cell `slot` of a part, from one point
+/// location: the smooth shading normal facing against `dir` (if `normal`;
+/// GradientMethod::smooth: the vertex gradients interpolated, or the cell's
+/// analytic normal where that is NaN or zero) and the colour array's value
+/// (if `value`; NaN where a corner is NaN).
+inline void hit_attributes(PreparedPart const& part, uint64_t slot, glm::vec3 const& p, glm::vec3 const& dir,
+                           glm::vec3* normal, float* value) {
   uint64_t const cell = part.tree.item(slot);
-  auto interpolate = [&](auto const& mesh) {
-    auto const cw = cell_weights(mesh, cell, p);
-    glm::vec3 g(0.f);
-    for (int i = 0; i < std::decay_t<decltype(mesh)>::corners; ++i)
-      for (int a = 0; a < 3; ++a) g[a] += cw.w[i] * part.gradients[3 * cw.v[i] + uint64_t(a)];
-    return g;
-  };
-  glm::vec3 const g = part.tets ? interpolate(*part.tets) : interpolate(*part.hexes);
-  float const gg = glm::dot(g, g);
-  if (!(gg > 0.f) || !std::isfinite(gg)) return normal_at(part, slot, p, dir, GradientMethod::analytic);
-  Vec3<scalar> const d{dir.x, dir.y, dir.z};
-  Vec3<scalar> const n = face_forward<scalar>(shading_normal<scalar>(Vec3<scalar>{g.x, g.y, g.z}, d), d);
-  return {n.x, n.y, n.z};
-}
-
-/// The part's colour array at hit point `p` of hit cell `slot` (NaN where a
-/// corner is NaN).
-inline float color_value(PreparedPart const& part, uint64_t slot, glm::vec3 const& p) {
-  uint64_t const cell = part.tree.item(slot);
+  glm::vec3 g(0.f);
   auto interpolate = [&](auto const& mesh) {
     auto const cw = cell_weights(mesh, cell, p);
     float v = 0.f;
-    for (int i = 0; i < std::decay_t<decltype(mesh)>::corners; ++i) v += cw.w[i] * part.color_values[cw.v[i]];
-    return v;
+    for (int i = 0; i < std::decay_t<decltype(mesh)>::corners; ++i) {
+      if (normal)
+        for (int a = 0; a < 3; ++a) g[a] += cw.w[i] * part.gradients[3 * cw.v[i] + uint64_t(a)];
+      if (value) v += cw.w[i] * part.color_values[cw.v[i]];
+    }
+    if (value) *value = v;
   };
-  return part.tets ? interpolate(*part.tets) : interpolate(*part.hexes);
+  if (part.tets) interpolate(*part.tets);
+  else interpolate(*part.hexes);
+  if (!normal) return;
+  float const gg = glm::dot(g, g);
+  if (!(gg > 0.f) || !std::isfinite(gg)) {
+    *normal = normal_at(part, slot, p, dir, GradientMethod::analytic);
+    return;
+  }
+  Vec3<scalar> const d{dir.x, dir.y, dir.z};
+  Vec3<scalar> const n = face_forward<scalar>(shading_normal<scalar>(Vec3<scalar>{g.x, g.y, g.z}, d), d);
+  *normal = {n.x, n.y, n.z};
 }
 
 /// x^e per lane (xsimd's vector pow; std::pow for the scalar arch).
@@ -454,20 +453,20 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
         for (uint32_t bits = hit_bits; bits; bits &= bits - 1) {
           int const l = __builtin_ctz(bits);
           PreparedPart const& hit_part = s.parts[size_t(part[l])];
+          glm::vec3 n(0.f);
+          float colour_value = std::numeric_limits<float>::quiet_NaN();
+          if (smooth || s.color_by)  // one location of the hit for both
+            hit_attributes(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l),
+                           smooth ? lane_vec<W>(dir_a, l) : glm::vec3(0.f),  // dir_a is filled when normals are not analytic
+                           smooth ? &n : nullptr, s.color_by ? &colour_value : nullptr);
           if (!query_gradient) {
-            glm::vec3 const n =
-                smooth ? smooth_normal(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l), lane_vec<W>(dir_a, l))
-                       : normal_at(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l), lane_vec<W>(dir_a, l), p.normals);
+            if (!smooth) n = normal_at(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l), lane_vec<W>(dir_a, l), p.normals);
             nrm_a[0][size_t(l)] = n.x, nrm_a[1][size_t(l)] = n.y, nrm_a[2][size_t(l)] = n.z;
           }
           // Per-lane copies only for the shadow and AO rays below.
           if (secondary) pos[l] = lane_vec<W>(pos_a, l), ldir[l] = lane_vec<W>(ldir_a, l), nrm[l] = lane_vec<W>(nrm_a, l);
           IsoSurface const& surf = p.surfaces[size_t(iso[l])];
-          glm::vec3 base = surf.color;
-          if (s.color_by) {
-            float const v = color_value(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l));
-            if (std::isfinite(v)) base = table_color(s.colors, v);
-          }
+          glm::vec3 const base = std::isfinite(colour_value) ? table_color(s.colors, colour_value) : surf.color;
           base_r[l] = base.r, base_g[l] = base.g, base_b[l] = base.b;
           opacity[l] = surf.opacity;
         }
