@@ -2,24 +2,38 @@
 // ranks, composited by IceT (issue #22). Run under mpirun:
 //
 //   mpirun -np 4 cellray-mpi-render mesh.vtk --mode dvr -o out.png
+//   mpirun -np 4 cellray-mpi-render pieces.pvtu --mode dvr -o out.png
 //
-// Every rank reads the mesh (or generates the default scene), computes the
-// same k-d partition of it by cell centroids (k = ranks,
-// cellray/mesh/partition.hpp) and keeps the cells of its region (a cell
-// straddling a region border goes to every region it touches); it builds a
-// BVH over those, renders them with its rays clipped exactly to its region's
-// box and a clear background (premultiplied RGBA), and IceT blends the ranks'
-// images in the regions' front-to-back order for the eye
-// (ICET_COMPOSITE_MODE_BLEND, ICET_ORDERED_COMPOSITE). Rank 0 puts the
-// background behind and writes the image. Ordered blending is exact for
-// opaque isosurfaces too: the regions are disjoint boxes met in order along
-// every ray, so the first opaque hit along a ray (opacity 1) hides what the
-// later regions add, as a z-buffer would, with no depth buffer to send.
+// Input. A single file (.vtk, .vtu) or the generated default scene: every
+// rank reads it whole and keeps its region's cells. A ParaView .pvtu: rank
+// r of k reads only pieces [r p / k, (r+1) p / k) and the ranks repartition
+// the cells with MPI: the bounds and value range by MPI_Allreduce, a k-d
+// tree every rank builds alike from a gathered sample of at most 2^20 cell
+// centroids, then each cell sent (MPI_Alltoallv, 16 bytes per corner:
+// position and the rendered value) to every region it overlaps, where
+// equal corners are welded into one vertex again (pieces repeat the points
+// on their borders). Memory per rank is then its pieces plus its region,
+// never the whole mesh. Ghost cells (vtkGhostType) are dropped by the reader.
+//
+// Partition (cellray/mesh/partition.hpp): k = ranks regions tiling the mesh
+// bounds, split by cell centroids; a cell straddling a region border goes
+// to every region it touches. Each rank holds its region's cells with
+// compact vertices, builds a BVH over those, renders them with its rays
+// clipped exactly to its region's box and a clear background (premultiplied
+// RGBA), and IceT blends the ranks' images in the regions' front-to-back
+// order for the eye (ICET_COMPOSITE_MODE_BLEND, ICET_ORDERED_COMPOSITE).
+// Rank 0 puts the background behind and writes the image. Ordered blending
+// is exact for opaque isosurfaces too: the regions are disjoint boxes met in
+// order along every ray, so the first opaque hit along a ray (opacity 1)
+// hides what the later regions add, as a z-buffer would, with no depth
+// buffer to send.
 //
 // What a rank cannot do alone: shadow and ambient-occlusion rays need the
 // whole mesh (a ray leaving the region may be blocked elsewhere), so
-// --shadows and --ao are refused. Smooth normals are exact: the per-vertex
-// gradients come from the whole mesh each rank has read.
+// --shadows and --ao are refused. Smooth normals are exact: with them, a
+// region also holds the cells within the largest cell extent of its box (a
+// halo), which are all the cells around its cells' vertices, so its
+// per-vertex gradients are the whole mesh's.
 //
 // Flags: a subset of cellray-render's, with the same meaning and defaults
 // (so an image compares to cellray-render's with the same flags): mesh,
@@ -27,9 +41,9 @@
 // --tf (presets), --opacity, --unit-distance, --step, --dvr-mode,
 // --background, --eye, --at, --up, --fov, --zoom, --azimuth, --elevation,
 // --size, -o, --threads, --skip-unsupported, --stats (per-rank timings as
-// JSON lines on rank 0's stdout). Meshes of one cell type only (tets or
-// hexes) whose coordinates and values need no rescaling (cellray-render's
-// Frame / ValueFrame); others are refused with a message.
+// JSON lines on rank 0's stdout). Tets, hexes or both; meshes whose
+// coordinates or values need rescaling for float (cellray-render's Frame /
+// ValueFrame) are refused with a message.
 //
 // Errors: every rank checks its own work; an MPI_Allreduce of an error code
 // after each collective phase makes all ranks stop together (exit code as
@@ -47,11 +61,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <iostream>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -61,6 +78,7 @@
 #include <cellray/cells/vertex_gradients.hpp>
 #include <cellray/error.hpp>
 #include <cellray/io/image_write.hpp>
+#include <cellray/io/pvtu.hpp>
 #include <cellray/io/read_mesh.hpp>
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/neighbours.hpp>
@@ -151,31 +169,61 @@ int agree(Failure const& f, int rank, int ranks) {
   return code;
 }
 
-/// What every rank holds: the whole mesh, its region's cells and the render set-up.
+/// Collective: runs `f` on every rank, then agree()s. Work between two
+/// collectives goes through this, so no rank enters a collective that a
+/// failed rank will never reach.
+template <class F> int phase(int rank, int ranks, F&& f) { return agree(attempt(std::forward<F>(f)), rank, ranks); }
+
+/// The rank's region, as a mesh of its own: the cells whose boxes overlap
+/// its k-d box (plus a halo for smooth normals), with compact vertices.
+/// From a single file every rank read whole, CellSubsets of it; from a
+/// .pvtu, the cells other ranks sent, their vertices welded (pvtu pieces
+/// repeat the points on their borders: equal position and value is one
+/// vertex, which restores face neighbours across pieces).
+struct Region {
+  CellSubset<4> tet_sub;
+  CellSubset<8> hex_sub;
+  UnstructuredGrid received;
+  TetMesh tets;
+  HexMesh hexes;
+  uint64_t vertex_count() const { return tets.vertex_count() + (received.empty() ? hexes.vertex_count() : 0); }
+};
+
+/// What every rank holds: its input (the whole mesh, or its pieces of a
+/// .pvtu), the partition, its region and the render set-up.
 struct Setup {
+  bool distributed = false;  // a .pvtu: each rank holds only its pieces
   std::optional<UnstructuredGrid> grid;
   std::optional<GeneratedMesh<4>> gen_tets;
   std::optional<GeneratedMesh<8>> gen_hexes;
-  TetMesh tets;
+  TetMesh tets;   // the input's cells, the chosen array active
   HexMesh hexes;
+  std::string name, array;
+  float vlo = 0.f, vhi = 0.f;
+  CellExtents tet_boxes, hex_boxes;
+  glm::vec3 lo{0.f}, hi{0.f}, halo{0.f};
   KdPartition part;
-  CellSubset<4> tet_sub;
-  CellSubset<8> hex_sub;
-  TetMesh tet_region;
-  HexMesh hex_region;
-  MinMaxBvh bvh;
+  Region region;
+  MinMaxBvh tet_bvh, hex_bvh;
   TetNeighbours neighbours;
-  VertexGradients gradients;
+  VertexGradients tet_gradients, hex_gradients;
   Scene scene;  // empty when the region has no cells
   Camera cam;
   IsoParams ip;
   DvrParams dp;
   glm::vec4 background{1.f};
-  double read_ms = 0, partition_ms = 0, build_ms = 0;
+  double read_ms = 0, partition_ms = 0, exchange_ms = 0, build_ms = 0;
 };
 
-/// Reads, partitions and builds; the same on every rank but for the region.
-void set_up(Options const& o, int rank, int ranks, Setup& s) {
+bool ends_with_pvtu(std::string const& path) {
+  return path.size() >= 5 && io::iequals(std::string_view(path).substr(path.size() - 5), ".pvtu");
+}
+
+/// Reads this rank's input: the generated scene or a single file (every
+/// rank reads it whole) or, from a .pvtu, the pieces [r p / k, (r+1) p / k)
+/// (some ranks read none when there are fewer pieces than ranks). Chooses
+/// the array and validates the cells read. No collectives.
+void read_input(Options const& o, int rank, int ranks, Setup& s) {
   if (o.shadows || o.ao > 0)
     throw UsageError(std::string(o.shadows ? "--shadows" : "--ao") +
                      ": shadow and ambient-occlusion rays need the whole mesh, which no rank holds alone "
@@ -185,61 +233,239 @@ void set_up(Options const& o, int rank, int ranks, Setup& s) {
   if (image_format(o.out).empty()) throw UsageError("-o: '" + o.out + "' must end in .png or .ppm");
   if (o.mode != "iso" && o.mode != "dvr") throw UsageError("--mode: iso or dvr, got '" + o.mode + "'");
 
-  auto t0 = Clock::now();
   // Test hook: CELLRAY_MPI_FAIL_RANK=r makes rank r fail to read, as a
   // rank whose file is unreadable would (tests/mpi: the others must not hang).
   if (char const* fail = std::getenv("CELLRAY_MPI_FAIL_RANK"); fail && std::atoi(fail) == rank)
     throw IoError("rank " + std::to_string(rank) + ": cannot read the mesh (CELLRAY_MPI_FAIL_RANK)");
-  std::string name = "default scene";
+  s.name = "default scene";
+  std::vector<std::string> arrays;
   if (o.mesh_path.empty()) {
     if (o.generate == "hexes") s.gen_hexes = generate_hexes(o.cells), s.hexes = s.gen_hexes->mesh();
     else s.gen_tets = generate_tets(o.cells), s.tets = s.gen_tets->mesh();
+    for (auto const& a : (s.gen_hexes ? s.hexes.arrays() : s.tets.arrays())) arrays.push_back(a.name);
   } else {
-    name = o.mesh_path;
+    s.name = o.mesh_path;
     ReadOptions ro;
     ro.skip_unsupported_cells = o.skip_unsupported;
-    s.grid = read_mesh(o.mesh_path, ro);
-    if (s.grid->empty()) throw InvalidMesh(name + " holds no tetrahedra or hexahedra");
+    if (ends_with_pvtu(o.mesh_path)) {
+      s.distributed = true;
+      PvtuIndex const index = read_pvtu_index(o.mesh_path);
+      size_t const p = index.pieces.size(), k = size_t(ranks), r = size_t(rank);
+      std::vector<UnstructuredGrid> mine;
+      for (size_t i = r * p / k; i < (r + 1) * p / k; ++i) mine.push_back(read_pvtu_piece(index, i, ro));
+      s.grid = merge_grids(std::move(mine));
+      arrays = index.point_arrays;
+    } else {
+      s.grid = read_mesh(o.mesh_path, ro);
+      if (s.grid->empty()) throw InvalidMesh(s.name + " holds no tetrahedra or hexahedra");
+      for (auto const& a : s.grid->point_arrays) arrays.push_back(a.name);
+    }
     s.tets = s.grid->tet_mesh();
     s.hexes = s.grid->hex_mesh();
-    if (!s.tets.empty() && !s.hexes.empty())
-      throw UsageError(name + ": mixed tet and hex meshes are not supported by cellray-mpi-render (use cellray-render)");
   }
-  bool const tet = !s.tets.empty();
-  auto const& arrays = tet ? s.tets.arrays() : s.hexes.arrays();
-  if (arrays.empty()) throw InvalidMesh(name + " has no point arrays to render");
-  std::string array = arrays.front().name;
+  if (arrays.empty()) throw InvalidMesh(s.name + " has no point arrays to render");
+  s.array = arrays.front();
   if (!o.array.empty()) {
-    bool found = false;
-    for (auto const& a : arrays) found = found || a.name == o.array;
-    if (!found) throw UsageError("--array: " + name + " has no point array '" + o.array + "'");
-    array = o.array;
+    if (std::find(arrays.begin(), arrays.end(), o.array) == arrays.end())
+      throw UsageError("--array: " + s.name + " has no point array '" + o.array + "'");
+    s.array = o.array;
   }
-  if (tet) s.tets = s.tets.with_array(array);
-  else s.hexes = s.hexes.with_array(array);
-  ValidationReport const rep = tet ? validate(s.tets) : validate(s.hexes);
-  if (!rep.ok()) throw InvalidMesh(name + " failed validation: " + rep.message());
-  float const vlo = rep.value_min, vhi = rep.value_max;
-  if (!(vlo <= vhi)) throw InvalidMesh(name + ": point array '" + array + "' has no finite value");
-  if (std::max(std::fabs(vlo), std::fabs(vhi)) > 0x1p+40f)
-    throw UsageError(name + ": values need rescaling for float ray tracing (cellray-render does it; this program does not)");
-  s.read_ms = ms_since(t0);
+  s.vlo = std::numeric_limits<float>::infinity(), s.vhi = -s.vlo;
+  auto check = [&](auto& mesh) {
+    if (mesh.empty()) return;
+    mesh = mesh.with_array(s.array);
+    ValidationReport const rep = validate(mesh);
+    if (!rep.ok()) throw InvalidMesh(s.name + " failed validation: " + rep.message());
+    s.vlo = std::min(s.vlo, rep.value_min), s.vhi = std::max(s.vhi, rep.value_max);
+  };
+  check(s.tets);
+  check(s.hexes);
+  s.tet_boxes = cell_extents(s.tets);
+  s.hex_boxes = cell_extents(s.hexes);
+}
 
-  t0 = Clock::now();
-  s.part = tet ? partition_kd(s.tets, ranks) : partition_kd(s.hexes, ranks);
-  glm::vec3 const lo = s.part.lo, hi = s.part.hi;
-  {
-    float const extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
-    float const reach = std::max({std::fabs(lo.x), std::fabs(lo.y), std::fabs(lo.z), std::fabs(hi.x), std::fabs(hi.y),
-                                  std::fabs(hi.z)});
-    if (!(extent >= 0x1p-20f && extent <= 0x1p+20f && reach <= 0x1p+8f * extent))
-      throw UsageError(name + ": coordinates need rescaling for float ray tracing (cellray-render does it; this program does not)");
+/// Every cell of `mesh` whose region (with the halo) is another rank's goes
+/// there: per destination, N x (x, y, z, value) floats per cell.
+template <int N>
+void pack_cells(CellMesh<N> const& mesh, CellExtents const& boxes, KdPartition const& part, glm::vec3 halo,
+                std::vector<std::vector<float>>& out) {
+  for (uint64_t c = 0; c < mesh.cell_count(); ++c)
+    for_each_overlapping_region(part, boxes.lo[c], boxes.hi[c], halo, [&](size_t r) {
+      for (int j = 0; j < N; ++j) {
+        uint64_t const v = mesh.vertex(c, j);
+        glm::vec3 const p = mesh.position(v);
+        out[r].insert(out[r].end(), {p.x, p.y, p.z, mesh.value(v)});
+      }
+    });
+}
+
+/// Collective: sends each rank the floats in out[rank], returns what all
+/// ranks sent this one, in rank order.
+std::vector<float> send_to_regions(std::vector<std::vector<float>> const& out, int ranks) {
+  size_t const k = static_cast<size_t>(ranks);
+  std::vector<int> send_count(k), recv_count(k), send_at(k), recv_at(k);
+  std::vector<float> send;
+  for (int r = 0; r < ranks; ++r) {
+    send_at[size_t(r)] = int(send.size());
+    send_count[size_t(r)] = int(out[size_t(r)].size());
+    send.insert(send.end(), out[size_t(r)].begin(), out[size_t(r)].end());
   }
-  KdRegion const& region = s.part.regions[size_t(rank)];
+  MPI_Alltoall(send_count.data(), 1, MPI_INT, recv_count.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  int64_t total = 0;
+  for (int r = 0; r < ranks; ++r) recv_at[size_t(r)] = int(total), total += recv_count[size_t(r)];
+  std::vector<float> recv(static_cast<size_t>(total));
+  MPI_Alltoallv(send.data(), send_count.data(), send_at.data(), MPI_FLOAT, recv.data(), recv_count.data(),
+                recv_at.data(), MPI_FLOAT, MPI_COMM_WORLD);
+  return recv;
+}
+
+/// Welds received corners (x, y, z, value) into `grid`'s vertices: equal
+/// bits are one vertex. Appends N ids per cell to `ids`.
+struct Welder {
+  struct Key {
+    uint32_t b[4];
+    bool operator==(Key const& o) const { return std::equal(b, b + 4, o.b); }
+  };
+  struct Hash {
+    size_t operator()(Key const& k) const noexcept {
+      uint64_t h = 0x9e3779b97f4a7c15ull;
+      for (uint32_t x : k.b) h = (h ^ x) * 0xff51afd7ed558ccdull;
+      return size_t(h ^ (h >> 32));
+    }
+  };
+  std::unordered_map<Key, uint32_t, Hash> ids;
+  std::vector<float> xyz, values;
+
+  void add(std::vector<float> const& corners, std::vector<uint32_t>& cells) {
+    for (size_t i = 0; i + 4 <= corners.size(); i += 4) {
+      Key k;
+      std::memcpy(k.b, &corners[i], sizeof k.b);
+      auto const [it, added] = ids.try_emplace(k, uint32_t(values.size()));
+      if (added) {
+        if (values.size() == std::numeric_limits<uint32_t>::max())
+          throw InvalidMesh("a region holds more than 2^32 - 1 vertices; use more ranks");
+        xyz.insert(xyz.end(), {corners[i], corners[i + 1], corners[i + 2]});
+        values.push_back(corners[i + 3]);
+      }
+      cells.push_back(it->second);
+    }
+  }
+};
+
+/// Collective: the global bounds, value range and halo; the k-d partition
+/// (every rank builds the same tree from the same centroids: all of them
+/// from a single file, a gathered sample of at most 2^20 from a .pvtu); the
+/// rank's region.
+int partition_and_exchange(Options const& o, int rank, int ranks, Setup& s) {
+  auto const t0 = Clock::now();
+  bool const smooth = o.mode == "iso" && o.normals == "smooth";
+  float lo_hi[8] = {-s.tet_boxes.bounds_lo.x, -s.tet_boxes.bounds_lo.y, -s.tet_boxes.bounds_lo.z,
+                    s.tet_boxes.bounds_hi.x,  s.tet_boxes.bounds_hi.y,  s.tet_boxes.bounds_hi.z, -s.vlo, s.vhi};
+  for (int a = 0; a < 3; ++a) {
+    if (s.tets.empty()) lo_hi[a] = lo_hi[3 + a] = -std::numeric_limits<float>::infinity();
+    if (!s.hexes.empty()) {
+      lo_hi[a] = std::max(lo_hi[a], -s.hex_boxes.bounds_lo[a]);
+      lo_hi[3 + a] = std::max(lo_hi[3 + a], s.hex_boxes.bounds_hi[a]);
+    }
+  }
+  float global[8];
+  MPI_Allreduce(lo_hi, global, 8, MPI_FLOAT, MPI_MAX, MPI_COMM_WORLD);
+  s.lo = {-global[0], -global[1], -global[2]}, s.hi = {global[3], global[4], global[5]};
+  s.vlo = -global[6], s.vhi = global[7];
+  float ext[3], global_ext[3];
+  for (int a = 0; a < 3; ++a) ext[a] = std::max(s.tet_boxes.largest_extent[a], s.hex_boxes.largest_extent[a]);
+  MPI_Allreduce(ext, global_ext, 3, MPI_FLOAT, MPI_MAX, MPI_COMM_WORLD);
+  if (smooth) s.halo = {global_ext[0], global_ext[1], global_ext[2]};
+  uint64_t const local_cells = s.tets.cell_count() + s.hexes.cell_count();
+  uint64_t total_cells = local_cells;
+  if (s.distributed) MPI_Allreduce(&local_cells, &total_cells, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+
+  int code = phase(rank, ranks, [&] {
+    if (total_cells == 0) throw InvalidMesh(s.name + " holds no tetrahedra or hexahedra");
+    if (!(s.vlo <= s.vhi)) throw InvalidMesh(s.name + ": point array '" + s.array + "' has no finite value");
+    if (std::max(std::fabs(s.vlo), std::fabs(s.vhi)) > 0x1p+40f)
+      throw UsageError(s.name + ": values need rescaling for float ray tracing (cellray-render does it; this program does not)");
+    float const extent = std::max({s.hi.x - s.lo.x, s.hi.y - s.lo.y, s.hi.z - s.lo.z});
+    float const reach = std::max({std::fabs(s.lo.x), std::fabs(s.lo.y), std::fabs(s.lo.z), std::fabs(s.hi.x),
+                                  std::fabs(s.hi.y), std::fabs(s.hi.z)});
+    if (!(extent >= 0x1p-20f && extent <= 0x1p+20f && reach <= 0x1p+8f * extent))
+      throw UsageError(s.name + ": coordinates need rescaling for float ray tracing (cellray-render does it; this program does not)");
+  });
+  if (code) return code;
+
+  // The partition's points: every centroid, or an even sample of them.
+  std::vector<glm::vec3> points;
+  uint64_t const budget = uint64_t(1) << 20;
+  uint64_t const stride = s.distributed ? std::max<uint64_t>(1, (total_cells + budget - 1) / budget) : 1;
+  for (CellExtents const* b : {&s.tet_boxes, &s.hex_boxes})
+    for (uint64_t c = 0; c < b->size(); c += stride) points.push_back(b->centroid[c]);
+  if (s.distributed) {
+    int const mine = int(points.size() * 3);
+    std::vector<int> count(static_cast<size_t>(ranks)), at(static_cast<size_t>(ranks));
+    MPI_Allgather(&mine, 1, MPI_INT, count.data(), 1, MPI_INT, MPI_COMM_WORLD);
+    int total = 0;
+    for (int r = 0; r < ranks; ++r) at[size_t(r)] = total, total += count[size_t(r)];
+    std::vector<glm::vec3> all(size_t(total / 3));
+    MPI_Allgatherv(points.data(), mine, MPI_FLOAT, all.data(), count.data(), at.data(), MPI_FLOAT, MPI_COMM_WORLD);
+    points = std::move(all);
+  }
+  s.part = kd_tree(points, s.lo, s.hi, ranks);
   s.partition_ms = ms_since(t0);
 
+  auto const t1 = Clock::now();
+  Region& reg = s.region;
+  if (!s.distributed) {
+    code = phase(rank, ranks, [&] {
+      if (!s.tets.empty()) {
+        reg.tet_sub = subset_cells(s.tets, assign_cells(s.part, s.tet_boxes, s.halo)[size_t(rank)]);
+        reg.tets = reg.tet_sub.mesh();
+      }
+      if (!s.hexes.empty()) {
+        reg.hex_sub = subset_cells(s.hexes, assign_cells(s.part, s.hex_boxes, s.halo)[size_t(rank)]);
+        reg.hexes = reg.hex_sub.mesh();
+      }
+    });
+    s.exchange_ms = ms_since(t1);
+    return code;
+  }
+  // A .pvtu: send each cell to every region it overlaps, then weld.
+  std::vector<std::vector<float>> tet_out(static_cast<size_t>(ranks)), hex_out(static_cast<size_t>(ranks));
+  code = phase(rank, ranks, [&] {
+    pack_cells(s.tets, s.tet_boxes, s.part, s.halo, tet_out);
+    pack_cells(s.hexes, s.hex_boxes, s.part, s.halo, hex_out);
+    uint64_t bytes = 0;
+    for (int r = 0; r < ranks; ++r) bytes += (tet_out[size_t(r)].size() + hex_out[size_t(r)].size()) * 4;
+    if (bytes / 4 > uint64_t(std::numeric_limits<int>::max()))
+      throw InvalidMesh("rank " + std::to_string(rank) + " would send more than 2^31 values; use more ranks");
+  });
+  if (code) return code;
+  std::vector<float> const tet_in = send_to_regions(tet_out, ranks);
+  std::vector<float> const hex_in = send_to_regions(hex_out, ranks);
+  tet_out = {}, hex_out = {};
+  s.grid.reset();  // the pieces read: their cells are where they belong now
+  s.tets = {}, s.hexes = {};
+  code = phase(rank, ranks, [&] {
+    Welder w;
+    w.add(tet_in, reg.received.tets);
+    w.add(hex_in, reg.received.hexes);
+    reg.received.xyz = std::move(w.xyz);
+    reg.received.point_arrays.push_back({s.array, 1, std::move(w.values)});
+    reg.tets = reg.received.tet_mesh();
+    reg.hexes = reg.received.hex_mesh();
+  });
+  s.exchange_ms = ms_since(t1);
+  return code;
+}
+
+/// Camera, parameters and the region's BVHs, neighbours and gradients. No collectives.
+void prepare_render(Options const& o, int rank, Setup& s) {
+  auto const t0 = Clock::now();
+  int width = 0, height = 0;
+  parse_size(o.size, width, height);
+  KdRegion const& region = s.part.regions[size_t(rank)];
+  glm::vec3 const lo = s.lo, hi = s.hi;
+  float const vlo = s.vlo, vhi = s.vhi;
   // Camera: cellray-render's default view of the whole mesh's bounds.
-  t0 = Clock::now();
   float const framing = o.mesh_path.empty() ? 0.75f : 1.f;
   glm::vec3 const centre = 0.5f * (lo + hi);
   glm::dvec3 const fit_lo(centre + framing * (lo - centre)), fit_hi(centre + framing * (hi - centre));
@@ -298,24 +524,22 @@ void set_up(Options const& o, int rank, int ranks, Setup& s) {
     s.dp.background = {0.f, 0.f, 0.f, 0.f};
     s.dp.clip.planes = clip_box(region.lo, region.hi);
   }
-  // Smooth normals from the whole mesh: exact at the region's borders.
-  if (smooth) s.gradients = tet ? build_vertex_gradients(s.tets) : build_vertex_gradients(s.hexes);
 
-  if (!region.cells.empty()) {
-    if (tet) {
-      s.tet_sub = subset_cells(s.tets, region.cells);
-      s.tet_region = s.tet_sub.mesh();
-      s.bvh = build_minmax_bvh(s.tet_region);
-      bool const march = o.mode == "dvr" && s.dp.mode == DvrMode::segments;
-      if (march) s.neighbours = build_tet_neighbours(s.tet_region);
-      s.scene.tets.push_back({s.tet_region, &s.bvh, nullptr, march ? &s.neighbours : nullptr,
-                              smooth ? &s.gradients : nullptr});
-    } else {
-      s.hex_sub = subset_cells(s.hexes, region.cells);
-      s.hex_region = s.hex_sub.mesh();
-      s.bvh = build_minmax_bvh(s.hex_region);
-      s.scene.hexes.push_back({s.hex_region, &s.bvh, nullptr, smooth ? &s.gradients : nullptr});
-    }
+  // The region's own structures. Smooth normals: the region holds every
+  // cell around its vertices (the halo), so its gradients are the whole mesh's.
+  Region const& reg = s.region;
+  bool const march = o.mode == "dvr" && s.dp.mode == DvrMode::segments;
+  if (!reg.tets.empty()) {
+    s.tet_bvh = build_minmax_bvh(reg.tets);
+    if (march) s.neighbours = build_tet_neighbours(reg.tets);
+    if (smooth) s.tet_gradients = build_vertex_gradients(reg.tets);
+    s.scene.tets.push_back({reg.tets, &s.tet_bvh, nullptr, march ? &s.neighbours : nullptr,
+                            smooth ? &s.tet_gradients : nullptr});
+  }
+  if (!reg.hexes.empty()) {
+    s.hex_bvh = build_minmax_bvh(reg.hexes);
+    if (smooth) s.hex_gradients = build_vertex_gradients(reg.hexes);
+    s.scene.hexes.push_back({reg.hexes, &s.hex_bvh, nullptr, smooth ? &s.hex_gradients : nullptr});
   }
   s.build_ms = ms_since(t0);
 }
@@ -325,7 +549,11 @@ int run(Options const& o, int rank, int ranks) {
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
   auto const t_start = Clock::now();
   Setup s;
-  if (int const code = agree(attempt([&] { set_up(o, rank, ranks, s); }), rank, ranks)) return code;
+  auto const t_read = Clock::now();
+  if (int const code = phase(rank, ranks, [&] { read_input(o, rank, ranks, s); })) return code;
+  s.read_ms = ms_since(t_read);
+  if (int const code = partition_and_exchange(o, rank, ranks, s)) return code;
+  if (int const code = phase(rank, ranks, [&] { prepare_render(o, rank, s); })) return code;
 
   // Render this rank's region: premultiplied RGBA over a clear background.
   Image image;
@@ -380,16 +608,25 @@ int run(Options const& o, int rank, int ranks) {
 
   if (o.stats) {
     double const total_ms = ms_since(t_start);
-    double const mine[7] = {s.read_ms, s.partition_ms, s.build_ms, render_ms, composite_ms, total_ms,
-                            double(s.scene.cell_count())};
-    std::vector<double> all(size_t(7 * ranks));
-    MPI_Gather(mine, 7, MPI_DOUBLE, all.data(), 7, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    constexpr int n = 9;
+    double const mine[n] = {s.read_ms,
+                            s.partition_ms,
+                            s.exchange_ms,
+                            s.build_ms,
+                            render_ms,
+                            composite_ms,
+                            total_ms,
+                            double(s.scene.cell_count()),
+                            double(s.region.vertex_count())};
+    std::vector<double> all(size_t(n * ranks));
+    MPI_Gather(mine, n, MPI_DOUBLE, all.data(), n, MPI_DOUBLE, 0, MPI_COMM_WORLD);
     if (rank == 0)
       for (int r = 0; r < ranks; ++r) {
-        double const* m = &all[size_t(7 * r)];
-        std::printf("{\"rank\": %d, \"ranks\": %d, \"cells\": %.0f, \"read_ms\": %.1f, \"partition_ms\": %.1f, "
-                    "\"build_ms\": %.1f, \"render_ms\": %.1f, \"composite_ms\": %.1f, \"total_ms\": %.1f}\n",
-                    r, ranks, m[6], m[0], m[1], m[2], m[3], m[4], m[5]);
+        double const* m = &all[size_t(n * r)];
+        std::printf("{\"rank\": %d, \"ranks\": %d, \"cells\": %.0f, \"vertices\": %.0f, \"read_ms\": %.1f, "
+                    "\"partition_ms\": %.1f, \"exchange_ms\": %.1f, \"build_ms\": %.1f, \"render_ms\": %.1f, "
+                    "\"composite_ms\": %.1f, \"total_ms\": %.1f}\n",
+                    r, ranks, m[7], m[8], m[0], m[1], m[2], m[3], m[4], m[5], m[6]);
       }
   }
   return exit_ok;
@@ -407,7 +644,7 @@ int main(int argc, char** argv) {
                "Run as: mpirun -np N cellray-mpi-render [mesh] [flags]"};
   app.footer("Exit codes: 0 success; 1 other error; 2 usage; 3 I/O; 4 invalid mesh (all ranks exit with it).");
   Options o;
-  app.add_option("mesh", o.mesh_path, "Legacy .vtk or .vtu mesh; none: the generated default scene");
+  app.add_option("mesh", o.mesh_path, "Legacy .vtk, .vtu or .pvtu (each rank reads its pieces); none: the generated default scene");
   app.add_option("--generate", o.generate, "Default scene cell type")->check(CLI::IsMember({"tets", "hexes"}));
   app.add_option("--cells", o.cells, "Default scene size in cells (approximate)")->check(CLI::Range(uint64_t(1), uint64_t(1) << 31));
   app.add_option("--array", o.array, "Point array to render (default: the first)");

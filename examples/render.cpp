@@ -298,7 +298,7 @@ constexpr char const* exit_code_help =
     "Negative numbers as values work directly (--eye -2,1,3) or with '=' (--eye=-2,1,3).";
 
 void add_options(CLI::App& app, Options& o) {
-  app.add_option("mesh", o.mesh_path, "Legacy .vtk or .vtu mesh; none: the generated default scene");
+  app.add_option("mesh", o.mesh_path, "Legacy .vtk, .vtu or .pvtu mesh (pieces merged); none: the generated default scene");
   app.add_option("--generate", o.generate, "Default scene cell type (without a mesh)")
       ->check(CLI::IsMember({"tets", "hexes"}))
       ->capture_default_str();
@@ -1137,7 +1137,7 @@ int main(int argc, char** argv) {
   std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{
       "cellray-render: ray traces isosurfaces or a volume (DVR) of an unstructured tet/hex mesh\n"
-      "(legacy .vtk or .vtu) to PNG or PPM; without a mesh, renders a generated scene."};
+      "(legacy .vtk, .vtu or .pvtu) to PNG or PPM; without a mesh, renders a generated scene."};
   app.footer(exit_code_help);
   Options o;
   add_options(app, o);

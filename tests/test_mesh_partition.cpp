@@ -131,6 +131,68 @@ TEST_CASE("k-d partition: more regions than cells, empty mesh, bad k", "[mesh][p
   REQUIRE_THROWS_WITH(partition_kd(TetMesh{view(bad), view(tiny.cells)}, 2), Catch::Contains("cell"));
 }
 
+TEST_CASE("k-d partition: a halo of the largest cell extent holds every cell around the region's vertices",
+          "[mesh][partition]") {
+  auto const g = generate_hexes(2000, 9);
+  HexMesh const m = g.mesh();
+  CellExtents const boxes = cell_extents(m);
+  // Cells around each vertex.
+  std::vector<std::vector<uint64_t>> around(m.vertex_count());
+  for (uint64_t c = 0; c < m.cell_count(); ++c)
+    for (int j = 0; j < 8; ++j) around[m.vertex(c, j)].push_back(c);
+  for (int k : {2, 5}) {
+    KdPartition const plain = partition_kd(m, k);
+    KdPartition const halo = partition_kd(m, k, boxes.largest_extent);
+    for (int r = 0; r < k; ++r) {
+      auto const& with = halo.regions[size_t(r)].cells;
+      auto const& without = plain.regions[size_t(r)].cells;
+      REQUIRE(std::includes(with.begin(), with.end(), without.begin(), without.end()));
+      REQUIRE(with.size() > without.size());  // jittered cells: some lie just outside
+      for (uint64_t c : without)
+        for (int j = 0; j < 8; ++j)
+          for (uint64_t d : around[m.vertex(c, j)])
+            if (!std::binary_search(with.begin(), with.end(), d))
+              FAIL("region " << r << ": cell " << d << " shares vertex " << m.vertex(c, j) << " with cell " << c
+                             << " but is not in the halo");
+    }
+  }
+}
+
+TEST_CASE("k-d partition: a subset owns compact copies of the vertices its cells use", "[mesh][partition]") {
+  auto const g = generate_tets(3000, 3);
+  std::vector<float> second(g.field.size());
+  for (size_t i = 0; i < second.size(); ++i) second[i] = float(i);  // tells vertices apart
+  TetMesh m = g.mesh();
+  m = m.add_array("id", view(second)).with_array("id");
+  KdPartition const p = partition_kd(m, 4);
+  uint64_t total = 0;
+  for (auto const& reg : p.regions) {
+    CellSubset<4> const sub = subset_cells(m, reg.cells);
+    TetMesh const s = sub.mesh();
+    REQUIRE(s.cell_count() == reg.cells.size());
+    REQUIRE(s.active_array() == "id");
+    REQUIRE(s.arrays().size() == m.arrays().size());
+    REQUIRE(s.has_32bit_indices());
+    std::vector<uint64_t> used;
+    for (uint64_t c : reg.cells)
+      for (int j = 0; j < 4; ++j) used.push_back(m.vertex(c, j));
+    std::sort(used.begin(), used.end());
+    used.erase(std::unique(used.begin(), used.end()), used.end());
+    REQUIRE(s.vertex_count() == used.size());  // only the vertices used, each once
+    for (size_t i = 0; i < reg.cells.size(); ++i)
+      for (int j = 0; j < 4; ++j) {
+        uint64_t const v = s.vertex(i, j), pv = m.vertex(reg.cells[i], j);
+        REQUIRE(sub.vertex_ids[v] == pv);
+        REQUIRE(s.position(v) == m.position(pv));
+        REQUIRE(s.value(v) == m.value(pv));
+        REQUIRE(s.arrays()[0].values.data[v] == m.arrays()[0].values.data[pv]);  // "field"
+      }
+    total += s.vertex_count();
+  }
+  REQUIRE(total < 2 * m.vertex_count());
+  REQUIRE_THROWS_AS(subset_cells(m, {m.cell_count()}), InvalidArgument);
+}
+
 TEST_CASE("k-d partition: front_to_back is a visibility order along rays from the eye", "[mesh][partition]") {
   auto const g = generate_tets(4000, 5);
   std::mt19937 rng(11);
@@ -185,7 +247,7 @@ void put_background(Image& img, glm::vec4 const& bg) {
 /// background), composites them front to back and puts `bg` behind.
 template <int N, class Params, class Render>
 Image composite(CellMesh<N> const& mesh, KdPartition const& part, Camera const& cam, Params p, glm::vec4 bg,
-                VertexGradients const* gradients, Render render) {
+                bool smooth, Render render) {
   p.background = {0.f, 0.f, 0.f, 0.f};
   Image acc(cam.width, cam.height);
   for (int r : part.front_to_back(cam.eye)) {
@@ -196,12 +258,15 @@ Image composite(CellMesh<N> const& mesh, KdPartition const& part, Camera const& 
     MinMaxBvh const bvh = build_minmax_bvh(m);
     Scene scene(m, bvh);
     TetNeighbours nb;
+    // The region's own gradients: exact at its cells' vertices when the
+    // partition has the halo (check_composite).
+    VertexGradients const grad = smooth ? build_vertex_gradients(m) : VertexGradients();
     if constexpr (N == 4) {
       nb = build_tet_neighbours(m);
       scene = Scene(m, bvh, nullptr, &nb);
-      scene.tets[0].gradients = gradients;
+      scene.tets[0].gradients = smooth ? &grad : nullptr;
     } else {
-      scene.hexes[0].gradients = gradients;
+      scene.hexes[0].gradients = smooth ? &grad : nullptr;
     }
     p.clip.planes = clip_box(reg.lo, reg.hi);
     over(acc, render(scene, cam, p));
@@ -215,7 +280,7 @@ template <int N> void check_composite(CellMesh<N> const& mesh, std::string const
   MinMaxBvh const bvh = build_minmax_bvh(mesh);
   Scene whole(mesh, bvh);
   TetNeighbours nb;
-  VertexGradients const grad = build_vertex_gradients(mesh);  // of the whole mesh: exact at region borders
+  VertexGradients const grad = build_vertex_gradients(mesh);
   if constexpr (N == 4) {
     nb = build_tet_neighbours(mesh);
     whole = Scene(mesh, bvh, nullptr, &nb);
@@ -246,17 +311,20 @@ template <int N> void check_composite(CellMesh<N> const& mesh, std::string const
   Image const ref_dvr = render_dvr(whole, cam, dp);
   Image const ref_iso = render_iso(whole, cam, ip);
   Image const ref_opaque = render_iso(whole, cam, opaque);
+  glm::vec3 const halo = cell_extents(mesh).largest_extent;
   for (int k : {1, 2, 3, 5}) {
     KdPartition const part = partition_kd(mesh, k);
+    // Smooth normals need every cell around the region's vertices.
+    KdPartition const with_halo = partition_kd(mesh, k, halo);
     struct Case {
       char const* name;
       Image const& ref;
       Image got;
     };
     Case cases[] = {
-        {"DVR", ref_dvr, composite(mesh, part, cam, dp, dp.background, &grad, dvr)},
-        {"3 isosurfaces, 2 transparent", ref_iso, composite(mesh, part, cam, ip, ip.background, &grad, iso)},
-        {"1 opaque isosurface", ref_opaque, composite(mesh, part, cam, opaque, opaque.background, &grad, iso)},
+        {"DVR", ref_dvr, composite(mesh, part, cam, dp, dp.background, false, dvr)},
+        {"3 isosurfaces, 2 transparent", ref_iso, composite(mesh, with_halo, cam, ip, ip.background, true, iso)},
+        {"1 opaque isosurface", ref_opaque, composite(mesh, part, cam, opaque, opaque.background, false, iso)},
     };
     for (Case const& c : cases) {
       ImageDiff const d = compare_images(c.got, c.ref, 2.0);
@@ -281,7 +349,7 @@ template <int N> void check_composite(CellMesh<N> const& mesh, std::string const
       auto iso_ref = [](Scene const& s, Camera const& c, IsoParams const& p) { return render_iso_reference(s, c, p); };
       IsoParams flat = ip;
       flat.normals = GradientMethod::analytic;  // the reference's own normals
-      ImageDiff const d = compare_images(composite(mesh, part, cam, flat, ip.background, &grad, iso_ref),
+      ImageDiff const d = compare_images(composite(mesh, part, cam, flat, ip.background, false, iso_ref),
                                          render_iso_reference(whole, cam, flat), 2.0);
       test::report(what + ", k = " + std::to_string(k) + ", reference renderer, transparent", d);
       CHECK(d.rmse <= 0.01);

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <glm/common.hpp>
@@ -90,7 +91,7 @@ struct KdPartition {
 namespace detail {
 
 struct KdBuild {
-  std::vector<glm::vec3> centroid;
+  std::vector<glm::vec3> const* point = nullptr;
   std::vector<uint64_t> ids;  // reordered in place by the splits
   KdPartition* out = nullptr;
 
@@ -105,13 +106,13 @@ struct KdBuild {
     glm::vec3 const ext = hi - lo;
     int const axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : ext.y >= ext.z ? 1 : 2;
     int const k_below = k / 2;
-    // Cells in proportion to the regions on each side (k odd: the sides
-    // get k / 2 and k - k / 2 regions and as many n / k shares of cells).
+    // Points in proportion to the regions on each side (k odd: the sides
+    // get k / 2 and k - k / 2 regions and as many n / k shares of points).
     uint64_t const n = end - begin;
     uint64_t const m = begin + uint64_t(double(n) * double(k_below) / double(k));
-    float pos = 0.5f * (lo[axis] + hi[axis]);  // no cells: the middle
+    float pos = 0.5f * (lo[axis] + hi[axis]);  // no points: the middle
     if (n > 0) {
-      auto key = [&](uint64_t c) { return centroid[c][axis]; };
+      auto key = [&](uint64_t c) { return (*point)[c][axis]; };
       uint64_t const nth = std::min(m, end - 1);
       std::nth_element(ids.begin() + std::ptrdiff_t(begin), ids.begin() + std::ptrdiff_t(nth),
                        ids.begin() + std::ptrdiff_t(end), [&](uint64_t a, uint64_t b) { return key(a) < key(b); });
@@ -130,29 +131,55 @@ struct KdBuild {
   }
 };
 
+inline constexpr uint64_t kd_block = 4096;  // cells per task in the parallel passes
+
 }  // namespace detail
 
-/// Partitions `mesh` into `k` regions by its cells' centroids: each split
-/// halves a box on its longest axis at the centroid that leaves cells in
-/// proportion to the regions on each side (k need not be a power of two).
-/// Empty regions are possible (k above the cell count, many equal
-/// centroids) and valid. TBB-parallel over cells; O(n log k) plus the
-/// assignment, and 24 bytes per cell while running (centroids and ids).
-/// @throws InvalidArgument for k < 1; InvalidMesh for a cell with a
-///         non-finite vertex position or a vertex id past the positions
-///         (naming the cell). An empty mesh gives k empty regions of the
-///         empty box [0, 0].
-template <int N> KdPartition partition_kd(CellMesh<N> const& mesh, int k) {
+/// The k-d tree of `points` in the box [lo, hi] (regions' cell lists left
+/// empty): each split halves a box on its longest axis at the point that
+/// leaves points in proportion to the regions on each side (k need not be a
+/// power of two). Deterministic: the same points in the same order give the
+/// same tree on every machine (what MPI ranks rely on when each builds it
+/// from the same gathered sample). Points outside [lo, hi] are allowed (the
+/// split positions are clamped to the box).
+/// @throws InvalidArgument for k < 1.
+inline KdPartition kd_tree(std::vector<glm::vec3> const& points, glm::vec3 lo, glm::vec3 hi, int k) {
   if (k < 1) throw InvalidArgument("partition_kd: k must be at least 1, got " + std::to_string(k));
+  KdPartition part;
+  part.lo = lo, part.hi = hi;
+  part.regions.reserve(size_t(k));
+  part.splits.reserve(size_t(k - 1));
+  detail::KdBuild b;
+  b.point = &points;
+  b.ids.resize(points.size());
+  for (uint64_t c = 0; c < points.size(); ++c) b.ids[c] = c;
+  b.out = &part;
+  b.build(0, points.size(), lo, hi, k);
+  return part;
+}
+
+/// Per-cell bounding boxes and centroids (vertex means) of a mesh, and what
+/// partitioning needs from them: 36 bytes per cell.
+struct CellExtents {
+  std::vector<glm::vec3> lo, hi, centroid;
+  glm::vec3 bounds_lo{0.f}, bounds_hi{0.f};  ///< union of the boxes; [0, 0] when there are none
+  /// Per axis, the largest extent of any cell's box. As a halo (assign_cells),
+  /// it makes a region hold every cell around every vertex of its cells.
+  glm::vec3 largest_extent{0.f};
+  uint64_t size() const noexcept { return lo.size(); }
+};
+
+/// TBB-parallel over cells.
+/// @throws InvalidMesh for a cell with a vertex id past the positions or a
+///         non-finite vertex position, naming the cell.
+template <int N> CellExtents cell_extents(CellMesh<N> const& mesh) {
   uint64_t const n = mesh.cell_count();
   uint64_t const nv = mesh.vertex_count();
-  std::vector<glm::vec3> box_lo(n), box_hi(n);
-  detail::KdBuild b;
-  b.centroid.resize(n);
+  CellExtents out;
+  out.lo.resize(n), out.hi.resize(n), out.centroid.resize(n);
   constexpr uint64_t none = std::numeric_limits<uint64_t>::max();
-  std::vector<uint64_t> bad_block;  // first bad cell per block
-  uint64_t const block = 4096;
-  bad_block.assign((n + block - 1) / block, none);
+  uint64_t const block = detail::kd_block;
+  std::vector<uint64_t> bad_block((n + block - 1) / block, none);  // first bad cell per block
   tbb::parallel_for(tbb::blocked_range<uint64_t>(0, bad_block.size()), [&](tbb::blocked_range<uint64_t> const& r) {
     for (uint64_t bi = r.begin(); bi != r.end(); ++bi)
       for (uint64_t c = bi * block; c < std::min(n, (bi + 1) * block); ++c) {
@@ -169,53 +196,62 @@ template <int N> KdPartition partition_kd(CellMesh<N> const& mesh, int k) {
           lo = glm::min(lo, p), hi = glm::max(hi, p), sum += p;
         }
         if (!ok && bad_block[bi] == none) bad_block[bi] = c;
-        box_lo[c] = lo, box_hi[c] = hi;
-        b.centroid[c] = sum / float(N);
+        out.lo[c] = lo, out.hi[c] = hi;
+        out.centroid[c] = sum / float(N);
       }
   });
   for (uint64_t c : bad_block)
     if (c != none)
       throw InvalidMesh("partition_kd: cell " + std::to_string(c) +
                         " has a vertex id past the positions or a non-finite vertex position");
-
-  KdPartition part;
-  glm::vec3 lo(std::numeric_limits<float>::infinity()), hi(-lo);
-  for (uint64_t c = 0; c < n; ++c) lo = glm::min(lo, box_lo[c]), hi = glm::max(hi, box_hi[c]);
+  glm::vec3 lo(std::numeric_limits<float>::infinity()), hi(-lo), ext(0.f);
+  for (uint64_t c = 0; c < n; ++c) {
+    lo = glm::min(lo, out.lo[c]), hi = glm::max(hi, out.hi[c]);
+    ext = glm::max(ext, out.hi[c] - out.lo[c]);
+  }
   if (n == 0) lo = hi = glm::vec3(0.f);
-  part.lo = lo, part.hi = hi;
-  part.regions.reserve(size_t(k));
-  part.splits.reserve(size_t(k - 1));
-  b.ids.resize(n);
-  for (uint64_t c = 0; c < n; ++c) b.ids[c] = c;
-  b.out = &part;
-  b.build(0, n, lo, hi, k);
-  b.ids = {};
-  b.centroid = {};
+  out.bounds_lo = lo, out.bounds_hi = hi, out.largest_extent = ext;
+  return out;
+}
 
-  // Assignment by box overlap, down the tree: a cell goes below a split when
-  // its box reaches at or below the plane, above when it reaches at or above.
-  // Two passes over blocks of cells (count per block and region, then fill
-  // at the prefix sums) keep each region's cells ascending without a
-  // per-region bitmap (k n bytes: too much at k = 512).
-  size_t const ku = size_t(k), blocks = bad_block.size();
-  std::vector<uint64_t> count(blocks * ku, 0);
-  auto visit = [&](uint64_t c, auto&& emit) {
-    int stack[64];  // depth <= log2(k) + 1 per pending branch: k < 2^31
-    int top = 0;
-    stack[top++] = part.splits.empty() ? -1 : 0;
-    while (top > 0) {
-      int const id = stack[--top];
-      if (id < 0) {
-        emit(size_t(-id - 1));
-        continue;
-      }
-      KdSplit const& s = part.splits[size_t(id)];
-      if (box_hi[c][s.axis] >= s.position) stack[top++] = s.above;
-      if (box_lo[c][s.axis] <= s.position) stack[top++] = s.below;
+/// The regions (ids into part.regions) whose boxes overlap [lo - halo, hi +
+/// halo] (closed intervals: touching counts), passed to `emit` in k-d tree
+/// order. O(regions visited).
+template <class Emit>
+void for_each_overlapping_region(KdPartition const& part, glm::vec3 lo, glm::vec3 hi, glm::vec3 halo, Emit&& emit) {
+  lo -= halo, hi += halo;
+  int stack[64];  // depth <= log2(k) + 1 per pending branch: k < 2^31
+  int top = 0;
+  stack[top++] = part.splits.empty() ? -1 : 0;
+  while (top > 0) {
+    int const id = stack[--top];
+    if (id < 0) {
+      emit(size_t(-id - 1));
+      continue;
     }
-  };
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks), [&](tbb::blocked_range<uint64_t> const& r) {
-    for (uint64_t bi = r.begin(); bi != r.end(); ++bi)
+    KdSplit const& s = part.splits[size_t(id)];
+    if (hi[s.axis] >= s.position) stack[top++] = s.above;
+    if (lo[s.axis] <= s.position) stack[top++] = s.below;
+  }
+}
+
+/// For each region of `part`, the cells (ascending ids) whose boxes overlap
+/// the region's box grown by `halo` on each side. halo = 0: the cells the
+/// region's rays can meet. halo = boxes.largest_extent: also every cell
+/// around every vertex of those cells, so per-vertex quantities summed over
+/// cells (smooth-normal gradients) come out as on the whole mesh.
+/// TBB-parallel; two passes over blocks of cells (count per block and
+/// region, then fill at the prefix sums) keep each region's cells ascending
+/// without a per-region bitmap (k n bytes: too much at k = 512).
+inline std::vector<std::vector<uint64_t>> assign_cells(KdPartition const& part, CellExtents const& boxes,
+                                                       glm::vec3 halo = glm::vec3(0.f)) {
+  uint64_t const n = boxes.size(), block = detail::kd_block;
+  size_t const ku = part.regions.size(), blocks = size_t((n + block - 1) / block);
+  std::vector<std::vector<uint64_t>> cells(ku);
+  std::vector<uint64_t> count(blocks * ku, 0);
+  auto visit = [&](uint64_t c, auto&& emit) { for_each_overlapping_region(part, boxes.lo[c], boxes.hi[c], halo, emit); };
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](tbb::blocked_range<size_t> const& r) {
+    for (size_t bi = r.begin(); bi != r.end(); ++bi)
       for (uint64_t c = bi * block; c < std::min(n, (bi + 1) * block); ++c)
         visit(c, [&](size_t region) { ++count[bi * ku + region]; });
   });
@@ -226,52 +262,99 @@ template <int N> KdPartition partition_kd(CellMesh<N> const& mesh, int k) {
       count[bi * ku + r] = total;
       total += c;
     }
-    part.regions[r].cells.resize(total);
+    cells[r].resize(total);
   }
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks), [&](tbb::blocked_range<uint64_t> const& r) {
-    for (uint64_t bi = r.begin(); bi != r.end(); ++bi)
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](tbb::blocked_range<size_t> const& r) {
+    for (size_t bi = r.begin(); bi != r.end(); ++bi)
       for (uint64_t c = bi * block; c < std::min(n, (bi + 1) * block); ++c)
-        visit(c, [&](size_t region) { part.regions[region].cells[count[bi * ku + region]++] = c; });
+        visit(c, [&](size_t region) { cells[region][count[bi * ku + region]++] = c; });
   });
+  return cells;
+}
+
+/// Partitions `mesh` into `k` regions by its cells' centroids (kd_tree over
+/// all of them, in the mesh bounds) and assigns the cells (assign_cells,
+/// with `halo`). Empty regions are possible (k above the cell count, many
+/// equal centroids) and valid. TBB-parallel over cells; O(n log k) plus the
+/// assignment, and 44 bytes per cell while running.
+/// @throws InvalidArgument for k < 1; InvalidMesh for a cell with a
+///         non-finite vertex position or a vertex id past the positions
+///         (naming the cell). An empty mesh gives k empty regions of the
+///         empty box [0, 0].
+template <int N> KdPartition partition_kd(CellMesh<N> const& mesh, int k, glm::vec3 halo = glm::vec3(0.f)) {
+  if (k < 1) throw InvalidArgument("partition_kd: k must be at least 1, got " + std::to_string(k));
+  CellExtents const boxes = cell_extents(mesh);
+  KdPartition part = kd_tree(boxes.centroid, boxes.bounds_lo, boxes.bounds_hi, k);
+  std::vector<std::vector<uint64_t>> cells = assign_cells(part, boxes, halo);
+  for (size_t r = 0; r < cells.size(); ++r) part.regions[r].cells = std::move(cells[r]);
   return part;
 }
 
-/// The cells `ids` of `mesh` as a mesh of their own: an owned index array
-/// (the same index width as the mesh's) over the mesh's positions and point
-/// arrays, which are viewed, not copied (they must outlive this). Cell i of
-/// `mesh()` is cell ids[i] of `mesh`.
+/// The cells `ids` of `mesh` as a mesh of their own, owning compact copies
+/// of what they use: the vertices their cells name (in order of first use),
+/// every point array at those vertices, and 32-bit indices (64-bit only past
+/// 2^32 - 1 vertices). Cell i of `mesh()` is cell ids[i] of `mesh`; vertex j
+/// is vertex `vertex_ids[j]` of `mesh`. A region's BVH, neighbours and
+/// gradients then cost what the region holds, not what the whole mesh does.
 template <int N> struct CellSubset {
-  CellMesh<N> parent;
+  std::vector<float> xyz;
+  std::vector<std::string> names;           ///< the parent's point arrays, in order
+  std::vector<std::vector<float>> values;   ///< one per name, per subset vertex
+  std::string active;                       ///< the parent's active array
   std::vector<uint32_t> idx32;
   std::vector<uint64_t> idx64;
+  std::vector<uint64_t> vertex_ids;
 
-  /// The view over the subset, with the parent's arrays and active array.
+  /// The view over the subset's own arrays, the parent's array active.
   CellMesh<N> mesh() const {
-    Span<float> const xyz{parent.positions(), parent.vertex_count() * 3};
-    CellMesh<N> m = parent.has_32bit_indices() ? CellMesh<N>(xyz, view(idx32)) : CellMesh<N>(xyz, view(idx64));
-    for (ScalarArray const& a : parent.arrays()) m.add_array(a.name, a.values);
-    return parent.has_values() ? m.with_array(parent.active_array()) : m;
+    CellMesh<N> m = idx64.empty() ? CellMesh<N>(view(xyz), view(idx32)) : CellMesh<N>(view(xyz), view(idx64));
+    for (size_t a = 0; a < names.size(); ++a) m.add_array(names[a], view(values[a]));
+    return active.empty() ? m : m.with_array(active);
+  }
+  uint64_t memory_bytes() const noexcept {
+    uint64_t b = (xyz.size() + idx32.size()) * 4 + (idx64.size() + vertex_ids.size()) * 8;
+    for (auto const& v : values) b += v.size() * 4;
+    return b;
   }
 };
 
-/// @throws InvalidArgument for an id past the mesh's cells.
+/// @throws InvalidArgument for an id past the mesh's cells; InvalidMesh
+///         for a vertex id past the mesh's vertices (naming the cell).
 template <int N> CellSubset<N> subset_cells(CellMesh<N> const& mesh, std::vector<uint64_t> const& ids) {
   CellSubset<N> s;
-  s.parent = mesh;
-  uint64_t const n = mesh.cell_count();
+  uint64_t const n = mesh.cell_count(), nv = mesh.vertex_count();
   for (uint64_t c : ids)
     if (c >= n)
       throw InvalidArgument("subset_cells: cell id " + std::to_string(c) + " past the mesh's " + std::to_string(n) +
                             " cells");
-  if (mesh.has_32bit_indices()) {
-    s.idx32.resize(ids.size() * N);
-    for (size_t i = 0; i < ids.size(); ++i)
-      std::copy_n(mesh.indices32() + ids[i] * N, N, s.idx32.data() + i * N);
-  } else {
-    s.idx64.resize(ids.size() * N);
-    for (size_t i = 0; i < ids.size(); ++i)
-      std::copy_n(mesh.indices64() + ids[i] * N, N, s.idx64.data() + i * N);
+  // Parent vertex -> subset vertex: a hash map costs what the subset holds
+  // (a dense table would cost 4 bytes per parent vertex on every rank).
+  std::unordered_map<uint64_t, uint64_t> local;
+  local.reserve(ids.size() * (N == 4 ? 1 : 2));
+  std::vector<uint64_t> corners(ids.size() * N);
+  for (size_t i = 0; i < ids.size(); ++i)
+    for (int j = 0; j < N; ++j) {
+      uint64_t const v = mesh.vertex(ids[i], j);
+      if (v >= nv)
+        throw InvalidMesh("subset_cells: cell " + std::to_string(ids[i]) + " names vertex " + std::to_string(v) +
+                          " past the mesh's " + std::to_string(nv) + " vertices");
+      auto const [it, added] = local.try_emplace(v, s.vertex_ids.size());
+      if (added) s.vertex_ids.push_back(v);
+      corners[i * N + size_t(j)] = it->second;
+    }
+  if (s.vertex_ids.size() <= std::numeric_limits<uint32_t>::max()) s.idx32.assign(corners.begin(), corners.end());
+  else s.idx64 = std::move(corners);
+  s.xyz.resize(s.vertex_ids.size() * 3);
+  for (size_t j = 0; j < s.vertex_ids.size(); ++j) {
+    glm::vec3 const p = mesh.position(s.vertex_ids[j]);
+    s.xyz[3 * j] = p.x, s.xyz[3 * j + 1] = p.y, s.xyz[3 * j + 2] = p.z;
   }
+  for (ScalarArray const& a : mesh.arrays()) {
+    s.names.push_back(a.name);
+    std::vector<float>& v = s.values.emplace_back(s.vertex_ids.size());
+    for (size_t j = 0; j < s.vertex_ids.size(); ++j) v[j] = a.values.data[s.vertex_ids[j]];
+  }
+  s.active = std::string(mesh.active_array());
   return s;
 }
 
