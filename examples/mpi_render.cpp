@@ -68,7 +68,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
-#include <unordered_map>
+#include <type_traits>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -284,73 +284,113 @@ void read_input(Options const& o, int rank, int ranks, Setup& s) {
   s.hex_boxes = cell_extents(s.hexes);
 }
 
-/// Every cell of `mesh` whose region (with the halo) is another rank's goes
-/// there: per destination, N x (x, y, z, value) floats per cell.
-template <int N>
-void pack_cells(CellMesh<N> const& mesh, CellExtents const& boxes, KdPartition const& part, glm::vec3 halo,
-                std::vector<std::vector<float>>& out) {
-  for (uint64_t c = 0; c < mesh.cell_count(); ++c)
-    for_each_overlapping_region(part, boxes.lo[c], boxes.hi[c], halo, [&](size_t r) {
-      for (int j = 0; j < N; ++j) {
+/// What one rank sends another: the cells of the receiver's region (with
+/// the halo) among the sender's, as 32-bit words: a header (vertices, tets,
+/// hexes), each vertex once (x, y, z, value) and the cells' corners as
+/// indices into those vertices.
+std::vector<uint32_t> pack_region(TetMesh const& tets, std::vector<uint64_t> const& tet_ids, HexMesh const& hexes,
+                                  std::vector<uint64_t> const& hex_ids, std::vector<uint32_t>& stamp,
+                                  std::vector<uint32_t>& local, uint32_t mark) {
+  std::vector<uint32_t> msg(3), verts, cells;
+  uint32_t count = 0;
+  auto add = [&](auto const& mesh, std::vector<uint64_t> const& ids) {
+    constexpr int n = std::decay_t<decltype(mesh)>::corners;
+    for (uint64_t c : ids)
+      for (int j = 0; j < n; ++j) {
         uint64_t const v = mesh.vertex(c, j);
-        glm::vec3 const p = mesh.position(v);
-        out[r].insert(out[r].end(), {p.x, p.y, p.z, mesh.value(v)});
+        if (stamp[v] != mark) {
+          stamp[v] = mark, local[v] = count++;
+          float const f[4] = {mesh.position(v).x, mesh.position(v).y, mesh.position(v).z, mesh.value(v)};
+          uint32_t w[4];
+          std::memcpy(w, f, sizeof w);
+          verts.insert(verts.end(), w, w + 4);
+        }
+        cells.push_back(local[v]);
       }
-    });
+  };
+  add(tets, tet_ids);
+  add(hexes, hex_ids);
+  msg[0] = count, msg[1] = uint32_t(tet_ids.size()), msg[2] = uint32_t(hex_ids.size());
+  msg.insert(msg.end(), verts.begin(), verts.end());
+  msg.insert(msg.end(), cells.begin(), cells.end());
+  return msg;
 }
 
-/// Collective: sends each rank the floats in out[rank], returns what all
-/// ranks sent this one, in rank order.
-std::vector<float> send_to_regions(std::vector<std::vector<float>> const& out, int ranks) {
+/// Collective: sends each rank the words in out[rank], returns what all
+/// ranks sent this one and where each sender's message starts.
+std::vector<uint32_t> send_to_regions(std::vector<std::vector<uint32_t>> const& out, int ranks,
+                                      std::vector<int>& recv_at) {
   size_t const k = static_cast<size_t>(ranks);
-  std::vector<int> send_count(k), recv_count(k), send_at(k), recv_at(k);
-  std::vector<float> send;
-  for (int r = 0; r < ranks; ++r) {
-    send_at[size_t(r)] = int(send.size());
-    send_count[size_t(r)] = int(out[size_t(r)].size());
-    send.insert(send.end(), out[size_t(r)].begin(), out[size_t(r)].end());
+  std::vector<int> send_count(k), recv_count(k), send_at(k);
+  recv_at.assign(k, 0);
+  std::vector<uint32_t> send;
+  for (size_t r = 0; r < k; ++r) {
+    send_at[r] = int(send.size());
+    send_count[r] = int(out[r].size());
+    send.insert(send.end(), out[r].begin(), out[r].end());
   }
   MPI_Alltoall(send_count.data(), 1, MPI_INT, recv_count.data(), 1, MPI_INT, MPI_COMM_WORLD);
   int64_t total = 0;
-  for (int r = 0; r < ranks; ++r) recv_at[size_t(r)] = int(total), total += recv_count[size_t(r)];
-  std::vector<float> recv(static_cast<size_t>(total));
-  MPI_Alltoallv(send.data(), send_count.data(), send_at.data(), MPI_FLOAT, recv.data(), recv_count.data(),
-                recv_at.data(), MPI_FLOAT, MPI_COMM_WORLD);
+  for (size_t r = 0; r < k; ++r) recv_at[r] = int(total), total += recv_count[r];
+  std::vector<uint32_t> recv(static_cast<size_t>(total));
+  MPI_Alltoallv(send.data(), send_count.data(), send_at.data(), MPI_UINT32_T, recv.data(), recv_count.data(),
+                recv_at.data(), MPI_UINT32_T, MPI_COMM_WORLD);
   return recv;
 }
 
-/// Welds received corners (x, y, z, value) into `grid`'s vertices: equal
-/// bits are one vertex. Appends N ids per cell to `ids`.
-struct Welder {
-  struct Key {
-    uint32_t b[4];
-    bool operator==(Key const& o) const { return std::equal(b, b + 4, o.b); }
+/// Welds the vertices of the received messages: equal bits of (x, y, z,
+/// value) are one vertex (pieces repeat the points on their borders). An
+/// open-addressing table of vertex ids sized to twice the vertices received:
+/// a few bytes per vertex, one probe or two per lookup.
+void weld_messages(std::vector<uint32_t> const& in, std::vector<int> const& at, std::string const& array,
+                   UnstructuredGrid& grid) {
+  uint64_t received = 0;
+  for (int start : at)
+    if (size_t(start) < in.size()) received += in[size_t(start)];
+  size_t cap = 16;
+  while (cap < 2 * received) cap *= 2;
+  constexpr uint32_t empty = std::numeric_limits<uint32_t>::max();
+  std::vector<uint32_t> table(cap, empty);
+  std::vector<uint32_t> words;  // 4 per welded vertex
+  words.reserve(size_t(received) * 4);
+  auto hash = [](uint32_t const* w) {
+    uint64_t h = 0x9e3779b97f4a7c15ull;
+    for (int i = 0; i < 4; ++i) h = (h ^ w[i]) * 0xff51afd7ed558ccdull;
+    return size_t(h ^ (h >> 29));
   };
-  struct Hash {
-    size_t operator()(Key const& k) const noexcept {
-      uint64_t h = 0x9e3779b97f4a7c15ull;
-      for (uint32_t x : k.b) h = (h ^ x) * 0xff51afd7ed558ccdull;
-      return size_t(h ^ (h >> 32));
-    }
-  };
-  std::unordered_map<Key, uint32_t, Hash> ids;
-  std::vector<float> xyz, values;
-
-  void add(std::vector<float> const& corners, std::vector<uint32_t>& cells) {
-    for (size_t i = 0; i + 4 <= corners.size(); i += 4) {
-      Key k;
-      std::memcpy(k.b, &corners[i], sizeof k.b);
-      auto const [it, added] = ids.try_emplace(k, uint32_t(values.size()));
-      if (added) {
-        if (values.size() == std::numeric_limits<uint32_t>::max())
-          throw InvalidMesh("a region holds more than 2^32 - 1 vertices; use more ranks");
-        xyz.insert(xyz.end(), {corners[i], corners[i + 1], corners[i + 2]});
-        values.push_back(corners[i + 3]);
+  std::vector<uint32_t> remap;
+  for (size_t m = 0; m < at.size(); ++m) {
+    size_t const start = size_t(at[m]), end = m + 1 < at.size() ? size_t(at[m + 1]) : in.size();
+    if (start >= end) continue;
+    uint32_t const nv = in[start], nt = in[start + 1], nh = in[start + 2];
+    uint32_t const* v = &in[start + 3];
+    remap.resize(nv);
+    for (uint32_t i = 0; i < nv; ++i) {
+      uint32_t const* key = v + 4 * size_t(i);
+      size_t slot = hash(key) & (cap - 1);
+      while (table[slot] != empty && !std::equal(key, key + 4, &words[4 * size_t(table[slot])]))
+        slot = (slot + 1) & (cap - 1);
+      if (table[slot] == empty) {
+        if (words.size() / 4 == empty - 1) throw InvalidMesh("a region holds more than 2^32 - 2 vertices; use more ranks");
+        table[slot] = uint32_t(words.size() / 4);
+        words.insert(words.end(), key, key + 4);
       }
-      cells.push_back(it->second);
+      remap[i] = table[slot];
     }
+    uint32_t const* c = v + 4 * size_t(nv);
+    for (size_t i = 0; i < size_t(nt) * 4; ++i) grid.tets.push_back(remap[c[i]]);
+    c += size_t(nt) * 4;
+    for (size_t i = 0; i < size_t(nh) * 8; ++i) grid.hexes.push_back(remap[c[i]]);
   }
-};
+  size_t const n = words.size() / 4;
+  grid.xyz.resize(3 * n);
+  std::vector<float> values(n);
+  for (size_t i = 0; i < n; ++i) {
+    std::memcpy(&grid.xyz[3 * i], &words[4 * i], 3 * sizeof(float));
+    std::memcpy(&values[i], &words[4 * i + 3], sizeof(float));
+  }
+  grid.point_arrays.push_back({array, 1, std::move(values)});
+}
 
 /// Collective: the global bounds, value range and halo; the k-d partition
 /// (every rank builds the same tree from the same centroids: all of them
@@ -429,27 +469,28 @@ int partition_and_exchange(Options const& o, int rank, int ranks, Setup& s) {
     return code;
   }
   // A .pvtu: send each cell to every region it overlaps, then weld.
-  std::vector<std::vector<float>> tet_out(static_cast<size_t>(ranks)), hex_out(static_cast<size_t>(ranks));
+  std::vector<std::vector<uint32_t>> out(static_cast<size_t>(ranks));
   code = phase(rank, ranks, [&] {
-    pack_cells(s.tets, s.tet_boxes, s.part, s.halo, tet_out);
-    pack_cells(s.hexes, s.hex_boxes, s.part, s.halo, hex_out);
-    uint64_t bytes = 0;
-    for (int r = 0; r < ranks; ++r) bytes += (tet_out[size_t(r)].size() + hex_out[size_t(r)].size()) * 4;
-    if (bytes / 4 > uint64_t(std::numeric_limits<int>::max()))
-      throw InvalidMesh("rank " + std::to_string(rank) + " would send more than 2^31 values; use more ranks");
+    std::vector<std::vector<uint64_t>> const tet_ids = assign_cells(s.part, s.tet_boxes, s.halo);
+    std::vector<std::vector<uint64_t>> const hex_ids = assign_cells(s.part, s.hex_boxes, s.halo);
+    uint64_t const nv = std::max(s.tets.vertex_count(), s.hexes.vertex_count());  // one vertex array (the grid's)
+    std::vector<uint32_t> stamp(nv, std::numeric_limits<uint32_t>::max()), local(nv);
+    uint64_t words = 0;
+    for (int r = 0; r < ranks; ++r) {
+      out[size_t(r)] = pack_region(s.tets, tet_ids[size_t(r)], s.hexes, hex_ids[size_t(r)], stamp, local, uint32_t(r));
+      words += out[size_t(r)].size();
+    }
+    if (words > uint64_t(std::numeric_limits<int>::max()))
+      throw InvalidMesh("rank " + std::to_string(rank) + " would send more than 2^31 words; use more ranks");
   });
   if (code) return code;
-  std::vector<float> const tet_in = send_to_regions(tet_out, ranks);
-  std::vector<float> const hex_in = send_to_regions(hex_out, ranks);
-  tet_out = {}, hex_out = {};
+  std::vector<int> at;
+  std::vector<uint32_t> const in = send_to_regions(out, ranks, at);
+  out = {};
   s.grid.reset();  // the pieces read: their cells are where they belong now
   s.tets = {}, s.hexes = {};
   code = phase(rank, ranks, [&] {
-    Welder w;
-    w.add(tet_in, reg.received.tets);
-    w.add(hex_in, reg.received.hexes);
-    reg.received.xyz = std::move(w.xyz);
-    reg.received.point_arrays.push_back({s.array, 1, std::move(w.values)});
+    weld_messages(in, at, s.array, reg.received);
     reg.tets = reg.received.tet_mesh();
     reg.hexes = reg.received.hex_mesh();
   });
