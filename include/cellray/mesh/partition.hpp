@@ -9,6 +9,14 @@
 // ("over", premultiplied) are the image of the whole mesh: every ray meets
 // the boxes in that order, and inside a box it sees every cell it would see
 // in the whole mesh there.
+//
+// The pieces, for a host that distributes the cells itself (as
+// cellray-mpi-render does from a .pvtu): kd_tree() builds the tree from any
+// points (e.g. a sample of centroids gathered from every rank),
+// cell_extents() gives a mesh's cell boxes, assign_cells() lists each
+// region's cells (optionally with a halo), and subset_cells() makes a
+// region a mesh of its own with compact vertices. partition_kd() is all of
+// it for a mesh one process holds.
 
 #include <algorithm>
 #include <cmath>
