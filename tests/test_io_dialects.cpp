@@ -488,4 +488,68 @@ TEST_CASE("cell_to_point averages the cells around each vertex", "[io]") {
   CHECK(r.hex_mesh().cell_count() == 1);
 }
 
+TEST_CASE("legacy VTK with more cells than one parallel task: ids in order, first bad id named", "[io][legacy]") {
+  // 50,000 cells cross several 16,384-cell tasks of the parallel copy; a mix of
+  // kinds (and skipped wedges) makes each task's first output slot differ.
+  TestGrid g;
+  int const np = 24;  // write_legacy writes 24 points
+  for (int i = 0; i < np; ++i) {
+    g.xyz.insert(g.xyz.end(), {0.5 * i, -0.25 * i, 1.0});
+    g.temperature.push_back(i);
+    g.velocity.insert(g.velocity.end(), {1.0, 0.0, 0.0});
+    g.id.push_back(i);
+  }
+  int const nc = 50000;
+  for (int c = 0; c < nc; ++c) {
+    auto v = [&](int k) { return int64_t((c * 7 + k * 13) % np); };
+    int const kind = (c / 3 + c % 5) % 4;
+    if (kind == 0) g.types.push_back(10), g.cells.push_back({v(0), v(1), v(2), v(3)});
+    else if (kind == 1) g.types.push_back(12), g.cells.push_back({v(0), v(1), v(2), v(3), v(4), v(5), v(6), v(7)});
+    else if (kind == 2) g.types.push_back(11), g.cells.push_back({v(0), v(1), v(2), v(3), v(4), v(5), v(6), v(7)});
+    else g.types.push_back(13), g.cells.push_back({v(0), v(1), v(2), v(3), v(4), v(5)});
+    g.pressure.push_back(0.5 * c);
+  }
+  std::vector<uint32_t> tets, hexes;
+  std::vector<float> ptet, phex;
+  for (size_t c = 0; c < g.cells.size(); ++c) {
+    auto const& ids = g.cells[c];
+    if (g.types[c] == 10) {
+      for (int k = 0; k < 4; ++k) tets.push_back(uint32_t(ids[k]));
+      ptet.push_back(float(g.pressure[c]));
+    } else if (g.types[c] != 13) {
+      static constexpr int voxel_order[8] = {0, 1, 3, 2, 4, 5, 7, 6};
+      for (int k = 0; k < 8; ++k) hexes.push_back(uint32_t(ids[size_t(g.types[c] == 11 ? voxel_order[k] : k)]));
+      phex.push_back(float(g.pressure[c]));
+    }
+  }
+  ReadOptions opts;
+  opts.skip_unsupported_cells = true;
+  for (bool binary : {true, false})
+    for (bool new_layout : {false, true}) {
+      CAPTURE(binary, new_layout);
+      LegacyStyle s;
+      s.version = new_layout ? "5.1" : "4.2";
+      s.binary = binary;
+      s.new_layout = new_layout;
+      TestGrid bad = g;
+      UnstructuredGrid const r = read_vtk_legacy_from_memory(write_legacy(g, s), "big.vtk", opts);
+      CHECK(r.tets == tets);
+      CHECK(r.hexes == hexes);
+      REQUIRE(r.cell_array("pressure"));
+      CHECK(r.cell_array("pressure")->tet_values == ptet);
+      CHECK(r.cell_array("pressure")->hex_values == phex);
+      REQUIRE(r.vertex_count() == uint64_t(np));
+      for (int i = 0; i < 3 * np; ++i) CHECK(r.xyz[size_t(i)] == float(g.xyz[size_t(i)]));
+      // Bad ids in two tasks (and one negative): the earliest cell is named.
+      bad.cells[45001][1] = np;
+      bad.cells[40000][2] = -1;
+      bad.cells[20002][3] = np + 5;
+      CHECK_THROWS_WITH(read_vtk_legacy_from_memory(write_legacy(bad, s), "big.vtk", opts),
+                        Catch::Contains("cell 20002 uses vertex id " + std::to_string(np + 5) + ", outside [0, 24)"));
+      bad.cells[20002][3] = 0;
+      CHECK_THROWS_WITH(read_vtk_legacy_from_memory(write_legacy(bad, s), "big.vtk", opts),
+                        Catch::Contains("cell 40000 uses vertex id -1"));
+    }
+}
+
 }  // namespace test_io_dialects

@@ -21,6 +21,17 @@
 #include <utility>
 #include <vector>
 
+#if defined(__unix__) || defined(__APPLE__)
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#define CELLRAY_IO_MMAP 1
+#endif
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "../error.hpp"
 #include "grid.hpp"
 
@@ -88,6 +99,62 @@ template <class Read> auto naming_out_of_memory(std::string const& name, Read&& 
     throw IoError(name + ": not enough memory to read it (the file declares more data than this machine can hold)");
   }
 }
+
+/// A whole file's bytes, read-only: mapped where the system can (POSIX
+/// mmap), else read into memory. Mapping shares the page cache's pages, so a
+/// large file costs no fresh memory: on the VMs measured in PROFILE.md a first
+/// write to a fresh 4 KB page costs ~12 us, which made copying an 18.8 MB file
+/// into a std::string 55-60 ms, a third of its load. The mapping is private
+/// and sized when opened; a file truncated by another process while it is
+/// being read ends that read with SIGBUS (as for any mmap reader).
+/// @throws IoError naming the file (see read_file_bytes).
+class FileBytes {
+ public:
+  explicit FileBytes(std::string const& path) {
+#ifdef CELLRAY_IO_MMAP
+    require_regular_file(path);
+    int const fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) throw IoError(path + ": cannot open file (" + std::generic_category().message(errno) + ")");
+    struct stat st {};
+    if (::fstat(fd, &st) != 0) {
+      ::close(fd);
+      throw IoError(path + ": cannot determine the file size");
+    }
+    size_t const size = size_t(st.st_size);
+    if (size > 0) {
+      int flags = MAP_PRIVATE;
+#ifdef MAP_POPULATE
+      flags |= MAP_POPULATE;  // one call maps every cached page instead of a fault per 64 KB
+#endif
+      void* const p = ::mmap(nullptr, size, PROT_READ, flags, fd, 0);
+      if (p != MAP_FAILED) {
+        map_ = p;
+        size_ = size;
+        view_ = std::string_view(static_cast<char const*>(p), size);
+      }
+    }
+    ::close(fd);
+    if (map_) return;  // else (empty, or mmap refused) read it
+#endif
+    copy_ = naming_out_of_memory(path, [&] { return read_file_bytes(path); });
+    view_ = copy_;
+  }
+  ~FileBytes() {
+#ifdef CELLRAY_IO_MMAP
+    if (map_) ::munmap(map_, size_);
+#endif
+  }
+  FileBytes(FileBytes const&) = delete;
+  FileBytes& operator=(FileBytes const&) = delete;
+
+  std::string_view bytes() const { return view_; }
+
+ private:
+  void* map_ = nullptr;
+  size_t size_ = 0;
+  std::string copy_;
+  std::string_view view_;
+};
 
 inline std::string in_quotes(std::string_view s) { return "'" + std::string(s.substr(0, 80)) + (s.size() > 80 ? "...'" : "'"); }
 
@@ -223,6 +290,85 @@ struct NumArray {
   }
 };
 
+inline uint32_t byte_swap(uint32_t u) {
+  return (u >> 24) | ((u >> 8) & 0xff00u) | ((u << 8) & 0xff0000u) | (u << 24);
+}
+inline uint64_t byte_swap(uint64_t u) { return (uint64_t(byte_swap(uint32_t(u))) << 32) | byte_swap(uint32_t(u >> 32)); }
+
+/// Value i of 4- or 8-byte values at `p`, byte order fixed at compile time so
+/// that loops over it vectorise (the swap compiles to bswap / vpshufb).
+template <class T, bool Swap> inline T load_at(unsigned char const* p, uint64_t i) {
+  static_assert(sizeof(T) == 4 || sizeof(T) == 8);
+  using U = std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>;
+  U u;
+  std::memcpy(&u, p + sizeof(T) * i, sizeof(T));
+  if constexpr (Swap) u = byte_swap(u);
+  T v;
+  std::memcpy(&v, &u, sizeof(T));
+  return v;
+}
+
+/// Calls `f(get)` once, `get(i)` returning value i of `a` as a double: one
+/// switch on the element type per array instead of one per value. Float32 and
+/// Float64 in either byte order get their own loop, other types as_double().
+template <class F> void with_doubles(NumArray const& a, F&& f) {
+  unsigned char const* const p = a.data;
+  if (a.type == NumType::f32 && a.swap) f([p](uint64_t i) { return double(load_at<float, true>(p, i)); });
+  else if (a.type == NumType::f32) f([p](uint64_t i) { return double(load_at<float, false>(p, i)); });
+  else if (a.type == NumType::f64 && a.swap) f([p](uint64_t i) { return load_at<double, true>(p, i); });
+  else if (a.type == NumType::f64) f([p](uint64_t i) { return load_at<double, false>(p, i); });
+  else f([&a](uint64_t i) { return a.as_double(i); });
+}
+/// As with_doubles for integer arrays: `get(i)` is a.as_int(i); Int32 and
+/// Int64 in either byte order and UInt8 get their own loop.
+template <class F> void with_ints(NumArray const& a, F&& f) {
+  unsigned char const* const p = a.data;
+  if (a.type == NumType::i32 && a.swap) f([p](uint64_t i) { return int64_t(load_at<int32_t, true>(p, i)); });
+  else if (a.type == NumType::i32) f([p](uint64_t i) { return int64_t(load_at<int32_t, false>(p, i)); });
+  else if (a.type == NumType::i64 && a.swap) f([p](uint64_t i) { return load_at<int64_t, true>(p, i); });
+  else if (a.type == NumType::i64) f([p](uint64_t i) { return load_at<int64_t, false>(p, i); });
+  else if (a.type == NumType::u8) f([p](uint64_t i) { return int64_t(p[i]); });
+  else f([&a](uint64_t i) { return a.as_int(i); });
+}
+
+/// Values per parallel task when converting arrays: large enough that a task
+/// is ~100 us, small enough that both of two cores first-touch the output
+/// (a fresh page's first write dominates loading; PROFILE.md).
+constexpr uint64_t convert_grain = uint64_t(1) << 16;
+
+/// v.resize(n) for a trivial T, the new pages first written from all threads:
+/// on the VMs of PROFILE.md a fresh page's first write costs ~12 us and
+/// resize() alone takes that serially (a 10 MB index array: ~30 ms). The
+/// capacity is zeroed before resize() constructs into it (trivial types, so
+/// the bytes are the objects); the second pass over present pages is cheap.
+template <class T> void resize_touched(std::vector<T>& v, uint64_t n) {
+  static_assert(std::is_trivial_v<T>);
+  if (n <= v.size()) {
+    v.resize(n);
+    return;
+  }
+  v.reserve(n);
+  constexpr uint64_t page_bytes = uint64_t(1) << 16;
+  auto* const bytes = reinterpret_cast<unsigned char*>(v.data()) + v.size() * sizeof(T);
+  uint64_t const total = (n - v.size()) * sizeof(T);
+#if defined(CELLRAY_IO_MMAP) && defined(MADV_HUGEPAGE)
+  {
+    constexpr uintptr_t huge = uintptr_t(1) << 21;
+    uintptr_t const b = (reinterpret_cast<uintptr_t>(bytes) + huge - 1) & ~(huge - 1);
+    uintptr_t const e = (reinterpret_cast<uintptr_t>(bytes) + total) & ~(huge - 1);
+    // Transparent huge pages where the system grants them on request
+    // ("madvise" mode): one fault per 2 MB; measured 1.3x on a whole load.
+    if (e > b) ::madvise(reinterpret_cast<void*>(b), e - b, MADV_HUGEPAGE);
+  }
+#endif
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (total + page_bytes - 1) / page_bytes, 4),
+                    [&](tbb::blocked_range<uint64_t> const& r) {
+                      uint64_t const b = r.begin() * page_bytes, e = std::min(total, r.end() * page_bytes);
+                      std::memset(bytes + b, 0, e - b);
+                    });
+  v.resize(n);
+}
+
 /// double to float without undefined behaviour: out-of-range values become +-inf.
 inline float to_float(double d) {
   constexpr double fmax = double(std::numeric_limits<float>::max());
@@ -340,6 +486,85 @@ struct CellLocator {
   std::function<std::string(uint64_t)> type;
 };
 
+/// Second pass of build_cells: copies the vertex ids of kept cells, tasks of
+/// `cell_grain` cells in parallel (each starts at its cell's output slot,
+/// counted from `kinds`). Every id is checked, once per cell with one compare
+/// against `npoints`; when any is out of range the cells are walked again in
+/// order so the error names the first bad id, as a serial reader would.
+template <class SpanFn>
+void fill_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, SpanFn const& span, uint64_t npoints,
+                UnstructuredGrid& grid, CellLocator const& where, CellKinds const& kinds) {
+  constexpr uint64_t cell_grain = uint64_t(1) << 14;
+  uint64_t const nchunks = (ncells + cell_grain - 1) / cell_grain;
+  std::vector<uint64_t> first_tet(nchunks + 1, 0), first_hex(nchunks + 1, 0);
+  // Each task's span function is left at its first cell, so a cursor (the
+  // legacy classic layout) walks the list once in all, not once per task.
+  std::vector<SpanFn> walks;
+  walks.reserve(nchunks);
+  SpanFn seq = span;
+  for (uint64_t j = 0; j < nchunks; ++j) {
+    seq(j * cell_grain);
+    walks.push_back(seq);
+    uint64_t nt = 0, nh = 0;
+    for (uint64_t c = j * cell_grain, e = std::min(ncells, c + cell_grain); c < e; ++c) {
+      nt += kinds[c] == 0;
+      nh += kinds[c] == 1;
+    }
+    first_tet[j + 1] = first_tet[j] + nt;
+    first_hex[j + 1] = first_hex[j] + nh;
+  }
+  static constexpr int voxel_order[8] = {0, 1, 3, 2, 4, 5, 7, 6};
+  bool bad = false;
+  with_ints(conn, [&](auto const get) {
+    std::vector<unsigned char> chunk_bad(nchunks, 0);
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nchunks, 1), [&](tbb::blocked_range<uint64_t> const& r) {
+      for (uint64_t j = r.begin(); j < r.end(); ++j) {
+        SpanFn walk = walks[j];
+        uint32_t* tet = grid.tets.data() + 4 * first_tet[j];
+        uint32_t* hex = grid.hexes.data() + 8 * first_hex[j];
+        uint64_t out_of_range = 0;
+        for (uint64_t c = j * cell_grain, e = std::min(ncells, c + cell_grain); c < e; ++c) {
+          if (kinds[c] == 2) continue;
+          uint64_t const b = walk(c).first;
+          if (kinds[c] == 0) {
+            for (int k = 0; k < 4; ++k) {
+              int64_t const v = get(b + uint64_t(k));
+              out_of_range |= uint64_t(uint64_t(v) >= npoints);  // negative ids wrap to huge
+              tet[k] = uint32_t(v);
+            }
+            tet += 4;
+          } else {
+            // A voxel orders its corners like a pixel grid (0 1 3 2 / 4 5 7 6 as a hexahedron).
+            bool const voxel = types.as_int(c) == 11;
+            for (int k = 0; k < 8; ++k) {
+              int64_t const v = get(b + uint64_t(voxel ? voxel_order[k] : k));
+              out_of_range |= uint64_t(uint64_t(v) >= npoints);
+              hex[k] = uint32_t(v);
+            }
+            hex += 8;
+          }
+        }
+        chunk_bad[j] = out_of_range != 0;
+      }
+    });
+    for (unsigned char b : chunk_bad) bad |= b != 0;
+  });
+  if (!bad) return;
+  SpanFn walk = span;
+  for (uint64_t c = 0; c < ncells; ++c) {
+    if (kinds[c] == 2) continue;
+    uint64_t const b = walk(c).first;
+    bool const voxel = kinds[c] == 1 && types.as_int(c) == 11;
+    for (int k = 0; k < (kinds[c] == 0 ? 4 : 8); ++k) {
+      uint64_t const at = b + uint64_t(voxel ? voxel_order[k] : k);
+      int64_t const v = conn.as_int(at);
+      if (v < 0 || uint64_t(v) >= npoints)
+        throw IoError(where.conn(at) + "cell " + std::to_string(c) + " uses vertex id " + std::to_string(v) +
+                      ", outside [0, " + std::to_string(npoints) + ")");
+    }
+  }
+}
+
 /// Builds `grid.tets` / `grid.hexes` from VTK cells: cell c has type
 /// `types.as_int(c)` and vertex ids `conn[span(c).first, span(c).second)`,
 /// ranges already checked to lie within `conn`. Checks types, vertex counts
@@ -355,8 +580,9 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
   uint64_t first_unsupported[82] = {};
   uint64_t ntets = 0, nhexes = 0, nunsupported = 0;
   CellKinds kinds(ncells);
+  with_ints(types, [&](auto const type_of) {
   for (uint64_t c = 0; c < ncells; ++c) {
-    int64_t const t = types.as_int(c);
+    int64_t const t = type_of(c);
     uint64_t nodes = 0;
     bool exact = true;
     CellKind const kind = classify_cell(t, nodes, exact);
@@ -379,6 +605,7 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
       kinds[c] = 2;
     }
   }
+  });
   for (int t = 0; t < 82; ++t)
     if (per_type[t]) grid.report.cells_read[t] = per_type[t];
   if (nunsupported && !opts.skip_unsupported_cells) {
@@ -407,40 +634,33 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
   }
   // Counts were checked against the connectivity present (each kept cell has
   // >= 4 ids there), so these allocations are bounded by the file size.
-  grid.tets.resize(4 * ntets);
-  grid.hexes.resize(8 * nhexes);
-  uint64_t ti = 0, hi = 0;
-  auto vertex_id = [&](uint64_t k, uint64_t c) -> uint32_t {
-    int64_t const v = conn.as_int(k);
-    if (v < 0 || uint64_t(v) >= npoints)
-      throw IoError(where.conn(k) + "cell " + std::to_string(c) + " uses vertex id " + std::to_string(v) +
-                    ", outside [0, " + std::to_string(npoints) + ")");
-    return uint32_t(v);
-  };
-  for (uint64_t c = 0; c < ncells; ++c) {
-    if (kinds[c] == 2) continue;
-    uint64_t const b = span(c).first;
-    if (kinds[c] == 0) {
-      for (int k = 0; k < 4; ++k) grid.tets[ti++] = vertex_id(b + uint64_t(k), c);
-    } else {
-      // A voxel orders its corners like a pixel grid (0 1 3 2 / 4 5 7 6 as a hexahedron).
-      static constexpr int voxel_order[8] = {0, 1, 3, 2, 4, 5, 7, 6};
-      bool const voxel = types.as_int(c) == 11;
-      for (int k = 0; k < 8; ++k) grid.hexes[hi++] = vertex_id(b + uint64_t(voxel ? voxel_order[k] : k), c);
-    }
-  }
+  resize_touched(grid.tets, 4 * ntets);
+  resize_touched(grid.hexes, 8 * nhexes);
+  fill_cells(ncells, types, conn, span, npoints, grid, where, kinds);
   return kinds;
 }
 
-/// Euclidean magnitude of tuple i of `a` (the value itself with one component).
-inline float tuple_value(NumArray const& a, uint64_t i, int ncomp) {
-  if (ncomp == 1) return to_float(a.as_double(i));
+/// Euclidean magnitude of tuple i (the value itself with one component), `get` as with_doubles gives.
+template <class Get> float tuple_value(Get const& get, uint64_t i, int ncomp) {
+  if (ncomp == 1) return to_float(get(i));
   double s = 0.0;
   for (int k = 0; k < ncomp; ++k) {
-    double const v = a.as_double(i * uint64_t(ncomp) + uint64_t(k));
+    double const v = get(i * uint64_t(ncomp) + uint64_t(k));
     s += v * v;
   }
   return to_float(std::sqrt(s));
+}
+inline float tuple_value(NumArray const& a, uint64_t i, int ncomp) {
+  return tuple_value([&a](uint64_t k) { return a.as_double(k); }, i, ncomp);
+}
+
+/// out[i] = tuple_value(a, i, ncomp) for i < out.size(), in parallel.
+inline void convert_tuples(NumArray const& a, int ncomp, std::vector<float>& out) {
+  with_doubles(a, [&](auto const get) {
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, out.size(), convert_grain), [&](tbb::blocked_range<uint64_t> const& r) {
+      for (uint64_t i = r.begin(); i < r.end(); ++i) out[i] = tuple_value(get, i, ncomp);
+    });
+  });
 }
 
 inline std::string describe_array(char const* where, std::string const& name, int ncomp) {
@@ -458,9 +678,8 @@ inline void add_point_array(UnstructuredGrid& grid, std::string name, NumArray c
   PointArray p;
   p.name = std::move(name);
   p.components = ncomp;
-  uint64_t const n = grid.vertex_count();
-  p.values.resize(n);
-  for (uint64_t i = 0; i < n; ++i) p.values[i] = tuple_value(a, i, ncomp);
+  resize_touched(p.values, grid.vertex_count());
+  convert_tuples(a, ncomp, p.values);
   grid.report.arrays_read.push_back(describe_array("point", p.name, ncomp));
   grid.point_arrays.push_back(std::move(p));
 }
@@ -474,11 +693,20 @@ inline void add_cell_array(UnstructuredGrid& grid, std::string name, NumArray co
   CellArray c;
   c.name = std::move(name);
   c.components = ncomp;
-  c.tet_values.reserve(grid.tet_count());
-  c.hex_values.reserve(grid.hex_count());
-  for (uint64_t i = 0; i < kinds.size(); ++i) {
-    if (kinds[i] == 0) c.tet_values.push_back(tuple_value(a, i, ncomp));
-    else if (kinds[i] == 1) c.hex_values.push_back(tuple_value(a, i, ncomp));
+  if (grid.tet_count() == kinds.size() || grid.hex_count() == kinds.size()) {
+    // One kind of cell, none skipped: a straight conversion.
+    std::vector<float>& out = grid.tet_count() == kinds.size() ? c.tet_values : c.hex_values;
+    resize_touched(out, kinds.size());
+    convert_tuples(a, ncomp, out);
+  } else {
+    c.tet_values.reserve(grid.tet_count());
+    c.hex_values.reserve(grid.hex_count());
+    with_doubles(a, [&](auto const get) {
+      for (uint64_t i = 0; i < kinds.size(); ++i) {
+        if (kinds[i] == 0) c.tet_values.push_back(tuple_value(get, i, ncomp));
+        else if (kinds[i] == 1) c.hex_values.push_back(tuple_value(get, i, ncomp));
+      }
+    });
   }
   grid.report.arrays_read.push_back(describe_array("cell", c.name, ncomp));
   grid.cell_arrays.push_back(std::move(c));
@@ -486,8 +714,13 @@ inline void add_cell_array(UnstructuredGrid& grid, std::string name, NumArray co
 
 /// Positions from a 3-component array of `npoints` tuples.
 inline void set_positions(UnstructuredGrid& grid, NumArray const& a, uint64_t npoints) {
-  grid.xyz.resize(3 * npoints);
-  for (uint64_t i = 0; i < 3 * npoints; ++i) grid.xyz[i] = to_float(a.as_double(i));
+  resize_touched(grid.xyz, 3 * npoints);
+  float* const out = grid.xyz.data();
+  with_doubles(a, [&](auto const get) {
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, 3 * npoints, convert_grain), [&](tbb::blocked_range<uint64_t> const& r) {
+      for (uint64_t i = r.begin(); i < r.end(); ++i) out[i] = to_float(get(i));
+    });
+  });
 }
 
 /// Vertex ids are 32-bit (UnstructuredGrid); a larger point count is refused.

@@ -330,27 +330,44 @@ class LegacyParser {
                     " but CONNECTIVITY has " + std::to_string(cells_.data.count) + " entries");
   }
 
-  std::vector<uint64_t> starts_;  // classic layout: index of each cell's vertex count, + end
+  /// Classic layout: checks that the `ncells_` counts and their ids fill the
+  /// list exactly. Cells are found again by walking the counts (ClassicSpans),
+  /// not from a stored index: 8 bytes per cell of fresh memory cost more than
+  /// the walk (PROFILE.md, first-touch pages).
   void classic_starts() {
     NumArray const& d = cells_.data;
-    starts_.resize(ncells_ + 1);
     uint64_t k = 0;
-    for (uint64_t c = 0; c < ncells_; ++c) {
-      if (k >= d.count)
-        throw IoError(where_value(cells_, k) + "CELLS: the list of " + std::to_string(d.count) + " entries ends after " +
-                      std::to_string(c) + " of " + std::to_string(ncells_) + " cells");
-      int64_t const n = d.as_int(k);
-      if (n < 0 || uint64_t(n) > d.count - k - 1)
-        throw IoError(where_value(cells_, k) + "CELLS: cell " + std::to_string(c) + " claims " + std::to_string(n) +
-                      " vertices, more than the " + std::to_string(d.count - k - 1) + " entries left");
-      starts_[c] = k;
-      k += uint64_t(n) + 1;
-    }
+    with_ints(d, [&](auto const get) {
+      for (uint64_t c = 0; c < ncells_; ++c) {
+        if (k >= d.count)
+          throw IoError(where_value(cells_, k) + "CELLS: the list of " + std::to_string(d.count) + " entries ends after " +
+                        std::to_string(c) + " of " + std::to_string(ncells_) + " cells");
+        int64_t const n = get(k);
+        if (n < 0 || uint64_t(n) > d.count - k - 1)
+          throw IoError(where_value(cells_, k) + "CELLS: cell " + std::to_string(c) + " claims " + std::to_string(n) +
+                        " vertices, more than the " + std::to_string(d.count - k - 1) + " entries left");
+        k += uint64_t(n) + 1;
+      }
+    });
     if (k != d.count)
       src_.fail_line(cells_.header, "CELLS declares " + std::to_string(d.count) + " entries but its " +
                                         std::to_string(ncells_) + " cells use " + std::to_string(k));
-    starts_[ncells_] = k;
   }
+  /// span(c) of the classic layout for c rising (as build_cells asks), from
+  /// the last cell found; going back restarts at cell 0. Checked by classic_starts().
+  struct ClassicSpans {
+    NumArray const* d;
+    uint64_t cell = 0, k = 0;
+    std::pair<uint64_t, uint64_t> operator()(uint64_t c) {
+      if (c < cell) cell = k = 0;
+      for (; cell < c; ++cell) k += uint64_t(count(k)) + 1;
+      return {k + 1, k + 1 + uint64_t(count(k))};
+    }
+    int64_t count(uint64_t i) const {
+      if (d->type != NumType::i32) return d->as_int(i);  // ASCII: int64
+      return d->swap ? load_at<int32_t, true>(d->data, i) : load_at<int32_t, false>(d->data, i);
+    }
+  };
 
   void cell_types(uint64_t at) {
     if (have_types_) src_.fail_line(at, "a second CELL_TYPES section");
@@ -529,8 +546,7 @@ class LegacyParser {
     } else {
       kinds = build_cells(
           ncells_, types_.data, cells_.data,
-          [this](uint64_t c) { return std::pair<uint64_t, uint64_t>(starts_[c] + 1, starts_[c + 1]); }, npoints_, opts_,
-          grid, where);
+ClassicSpans{&cells_.data}, npoints_, opts_, grid, where);
     }
     set_positions(grid, points_.data, npoints_);
     for (auto& p : pending_) {
@@ -559,8 +575,8 @@ inline UnstructuredGrid read_vtk_legacy_from_memory(std::string_view bytes, std:
 /// ASCII or BINARY. See UnstructuredGrid for what is kept.
 /// @throws IoError as read_vtk_legacy_from_memory, or when the file cannot be read.
 inline UnstructuredGrid read_vtk_legacy(std::string const& path, ReadOptions const& opts = {}) {
-  std::string const bytes = io::naming_out_of_memory(path, [&] { return io::read_file_bytes(path); });
-  return read_vtk_legacy_from_memory(bytes, path, opts);
+  io::FileBytes const file(path);
+  return read_vtk_legacy_from_memory(file.bytes(), path, opts);
 }
 
 }  // namespace cellray

@@ -562,8 +562,8 @@ inline UnstructuredGrid read_vtu_from_memory(std::string_view bytes, std::string
 /// Reads a VTK XML unstructured grid file (".vtu"). See UnstructuredGrid.
 /// @throws IoError as read_vtu_from_memory, or when the file cannot be read.
 inline UnstructuredGrid read_vtu(std::string const& path, ReadOptions const& opts = {}) {
-  std::string const bytes = io::naming_out_of_memory(path, [&] { return io::read_file_bytes(path); });
-  return read_vtu_from_memory(bytes, path, opts);
+  io::FileBytes const file(path);
+  return read_vtu_from_memory(file.bytes(), path, opts);
 }
 
 }  // namespace cellray
