@@ -491,28 +491,24 @@ struct CellLocator {
 /// counted from `kinds`). Every id is checked, once per cell with one compare
 /// against `npoints`; when any is out of range the cells are walked again in
 /// order so the error names the first bad id, as a serial reader would.
+/// Where each task of fill_cells starts, recorded by build_cells' first pass:
+/// the span function left at the task's first cell (a cursor, as the legacy
+/// classic layout's, then walks the list once in all) and the kept tets and
+/// hexes before it.
+template <class SpanFn> struct CellTasks {
+  std::vector<SpanFn> walks;
+  std::vector<uint64_t> first_tet, first_hex;
+};
+/// Cells per task of fill_cells.
+constexpr uint64_t cell_grain = uint64_t(1) << 14;
+
 template <class SpanFn>
 void fill_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, SpanFn const& span, uint64_t npoints,
-                UnstructuredGrid& grid, CellLocator const& where, CellKinds const& kinds) {
-  constexpr uint64_t cell_grain = uint64_t(1) << 14;
-  uint64_t const nchunks = (ncells + cell_grain - 1) / cell_grain;
-  std::vector<uint64_t> first_tet(nchunks + 1, 0), first_hex(nchunks + 1, 0);
-  // Each task's span function is left at its first cell, so a cursor (the
-  // legacy classic layout) walks the list once in all, not once per task.
-  std::vector<SpanFn> walks;
-  walks.reserve(nchunks);
-  SpanFn seq = span;
-  for (uint64_t j = 0; j < nchunks; ++j) {
-    seq(j * cell_grain);
-    walks.push_back(seq);
-    uint64_t nt = 0, nh = 0;
-    for (uint64_t c = j * cell_grain, e = std::min(ncells, c + cell_grain); c < e; ++c) {
-      nt += kinds[c] == 0;
-      nh += kinds[c] == 1;
-    }
-    first_tet[j + 1] = first_tet[j] + nt;
-    first_hex[j + 1] = first_hex[j] + nh;
-  }
+                UnstructuredGrid& grid, CellLocator const& where, CellKinds const& kinds, CellTasks<SpanFn> const& tasks) {
+  uint64_t const nchunks = tasks.walks.size();
+  auto const& first_tet = tasks.first_tet;
+  auto const& first_hex = tasks.first_hex;
+  auto const& walks = tasks.walks;
   static constexpr int voxel_order[8] = {0, 1, 3, 2, 4, 5, 7, 6};
   bool bad = false;
   with_ints(conn, [&](auto const get) {
@@ -580,8 +576,13 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
   uint64_t first_unsupported[82] = {};
   uint64_t ntets = 0, nhexes = 0, nunsupported = 0;
   CellKinds kinds(ncells);
+  CellTasks<SpanFn> tasks;
   with_ints(types, [&](auto const type_of) {
   for (uint64_t c = 0; c < ncells; ++c) {
+    if (c % cell_grain == 0) {
+      tasks.first_tet.push_back(ntets);
+      tasks.first_hex.push_back(nhexes);
+    }
     int64_t const t = type_of(c);
     uint64_t nodes = 0;
     bool exact = true;
@@ -589,6 +590,7 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
     if (kind == CellKind::unknown)
       throw IoError(where.type(c) + "cell " + std::to_string(c) + " has unknown VTK cell type " + std::to_string(t));
     auto const [b, e] = span(c);
+    if (c % cell_grain == 0) tasks.walks.push_back(span);
     uint64_t const have = e - b;
     if (kind != CellKind::unsupported && (exact ? have != nodes : have < nodes))
       throw IoError(where.conn(b) + "cell " + std::to_string(c) + " (" + vtk_cell_type_name(int(t)) + ") has " +
@@ -636,7 +638,9 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
   // >= 4 ids there), so these allocations are bounded by the file size.
   resize_touched(grid.tets, 4 * ntets);
   resize_touched(grid.hexes, 8 * nhexes);
-  fill_cells(ncells, types, conn, span, npoints, grid, where, kinds);
+  tasks.first_tet.push_back(ntets);
+  tasks.first_hex.push_back(nhexes);
+  fill_cells(ncells, types, conn, span, npoints, grid, where, kinds, tasks);
   return kinds;
 }
 
@@ -669,8 +673,16 @@ inline std::string describe_array(char const* where, std::string const& name, in
   return s;
 }
 
-/// Adds a point array of `tuples` = vertex count tuples (checked by the caller).
-inline void add_point_array(UnstructuredGrid& grid, std::string name, NumArray const& a, int ncomp) {
+/// The values of a point array of `npoints` tuples, one per vertex (tuple_value).
+inline std::vector<float> point_values(NumArray const& a, int ncomp, uint64_t npoints) {
+  std::vector<float> v;
+  resize_touched(v, npoints);
+  convert_tuples(a, ncomp, v);
+  return v;
+}
+
+/// Adds a point array of converted values (point_values), one per vertex.
+inline void add_point_array(UnstructuredGrid& grid, std::string name, std::vector<float> values, int ncomp) {
   if (grid.point_array(name)) {
     grid.report.arrays_ignored.push_back("point '" + name + "' (a second point array with that name)");
     return;
@@ -678,10 +690,16 @@ inline void add_point_array(UnstructuredGrid& grid, std::string name, NumArray c
   PointArray p;
   p.name = std::move(name);
   p.components = ncomp;
-  resize_touched(p.values, grid.vertex_count());
-  convert_tuples(a, ncomp, p.values);
+  p.values = std::move(values);
   grid.report.arrays_read.push_back(describe_array("point", p.name, ncomp));
   grid.point_arrays.push_back(std::move(p));
+}
+
+/// Adds a point array of `tuples` = vertex count tuples (checked by the caller).
+inline void add_point_array(UnstructuredGrid& grid, std::string name, NumArray const& a, int ncomp) {
+  std::vector<float> values;
+  if (!grid.point_array(name)) values = point_values(a, ncomp, grid.vertex_count());
+  add_point_array(grid, std::move(name), std::move(values), ncomp);
 }
 
 /// Adds a cell array with one tuple per file cell, split by `kinds`.

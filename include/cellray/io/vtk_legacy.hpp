@@ -11,6 +11,8 @@
 #include <utility>
 #include <vector>
 
+#include <tbb/task_group.h>
+
 #include "detail.hpp"
 #include "grid.hpp"
 
@@ -536,22 +538,36 @@ class LegacyParser {
     CellLocator where;
     where.conn = [this](uint64_t k) { return where_value(cells_, k); };
     where.type = [this](uint64_t c) { return where_value(types_, c); };
+    // Points and point arrays need nothing from the cells: they are converted
+    // in a task while the cells are checked (a serial walk), so their fresh
+    // pages are first written on the other core.
+    std::vector<std::vector<float>> point_values(pending_.size());
+    tbb::task_group points_task;
+    points_task.run([&] {
+      set_positions(grid, points_.data, npoints_);
+      for (size_t i = 0; i < pending_.size(); ++i)
+        if (!pending_[i].cell) point_values[i] = io::point_values(pending_[i].data, pending_[i].ncomp, npoints_);
+    });
     CellKinds kinds;
-    if (new_layout_) {
-      NumArray const& o = offsets_.data;
-      kinds = build_cells(
-          ncells_, types_.data, cells_.data,
-          [&o](uint64_t c) { return std::pair<uint64_t, uint64_t>(uint64_t(o.as_int(c)), uint64_t(o.as_int(c + 1))); },
-          npoints_, opts_, grid, where);
-    } else {
-      kinds = build_cells(
-          ncells_, types_.data, cells_.data,
-ClassicSpans{&cells_.data}, npoints_, opts_, grid, where);
+    try {
+      if (new_layout_) {
+        NumArray const& o = offsets_.data;
+        kinds = build_cells(
+            ncells_, types_.data, cells_.data,
+            [&o](uint64_t c) { return std::pair<uint64_t, uint64_t>(uint64_t(o.as_int(c)), uint64_t(o.as_int(c + 1))); },
+            npoints_, opts_, grid, where);
+      } else {
+        kinds = build_cells(ncells_, types_.data, cells_.data, ClassicSpans{&cells_.data}, npoints_, opts_, grid, where);
+      }
+    } catch (...) {
+      points_task.wait();
+      throw;
     }
-    set_positions(grid, points_.data, npoints_);
-    for (auto& p : pending_) {
+    points_task.wait();
+    for (size_t i = 0; i < pending_.size(); ++i) {
+      Pending& p = pending_[i];
       if (p.cell) add_cell_array(grid, std::move(p.name), p.data, p.ncomp, kinds);
-      else add_point_array(grid, std::move(p.name), p.data, p.ncomp);
+      else add_point_array(grid, std::move(p.name), std::move(point_values[i]), p.ncomp);
     }
     for (auto& s : ignored_) grid.report.arrays_ignored.push_back(std::move(s));
     return grid;
