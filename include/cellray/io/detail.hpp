@@ -347,6 +347,10 @@ template <class T> void resize_touched(std::vector<T>& v, uint64_t n) {
     v.resize(n);
     return;
   }
+  if ((n - v.size()) * sizeof(T) < (uint64_t(1) << 20)) {
+    v.resize(n);  // small: not worth waking the thread pool
+    return;
+  }
   v.reserve(n);
   constexpr uint64_t page_bytes = uint64_t(1) << 16;
   auto* const bytes = reinterpret_cast<unsigned char*>(v.data()) + v.size() * sizeof(T);
@@ -513,7 +517,7 @@ void fill_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, Sp
   bool bad = false;
   with_ints(conn, [&](auto const get) {
     std::vector<unsigned char> chunk_bad(nchunks, 0);
-    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nchunks, 1), [&](tbb::blocked_range<uint64_t> const& r) {
+    auto fill = [&](tbb::blocked_range<uint64_t> const& r) {
       for (uint64_t j = r.begin(); j < r.end(); ++j) {
         SpanFn walk = walks[j];
         uint32_t* tet = grid.tets.data() + 4 * first_tet[j];
@@ -542,7 +546,10 @@ void fill_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, Sp
         }
         chunk_bad[j] = out_of_range != 0;
       }
-    });
+    };
+    tbb::blocked_range<uint64_t> const all(0, nchunks, 1);
+    if (nchunks <= 1) fill(all);
+    else tbb::parallel_for(all, fill);
     for (unsigned char b : chunk_bad) bad |= b != 0;
   });
   if (!bad) return;
@@ -661,9 +668,12 @@ inline float tuple_value(NumArray const& a, uint64_t i, int ncomp) {
 /// out[i] = tuple_value(a, i, ncomp) for i < out.size(), in parallel.
 inline void convert_tuples(NumArray const& a, int ncomp, std::vector<float>& out) {
   with_doubles(a, [&](auto const get) {
-    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, out.size(), convert_grain), [&](tbb::blocked_range<uint64_t> const& r) {
+    auto convert = [&](tbb::blocked_range<uint64_t> const& r) {
       for (uint64_t i = r.begin(); i < r.end(); ++i) out[i] = tuple_value(get, i, ncomp);
-    });
+    };
+    tbb::blocked_range<uint64_t> const all(0, out.size(), convert_grain);
+    if (out.size() <= convert_grain) convert(all);  // small: not worth waking the thread pool
+    else tbb::parallel_for(all, convert);
   });
 }
 
@@ -735,9 +745,12 @@ inline void set_positions(UnstructuredGrid& grid, NumArray const& a, uint64_t np
   resize_touched(grid.xyz, 3 * npoints);
   float* const out = grid.xyz.data();
   with_doubles(a, [&](auto const get) {
-    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, 3 * npoints, convert_grain), [&](tbb::blocked_range<uint64_t> const& r) {
+    auto convert = [&](tbb::blocked_range<uint64_t> const& r) {
       for (uint64_t i = r.begin(); i < r.end(); ++i) out[i] = to_float(get(i));
-    });
+    };
+    tbb::blocked_range<uint64_t> const all(0, 3 * npoints, convert_grain);
+    if (3 * npoints <= convert_grain) convert(all);
+    else tbb::parallel_for(all, convert);
   });
 }
 

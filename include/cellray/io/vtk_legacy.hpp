@@ -542,12 +542,15 @@ class LegacyParser {
     // in a task while the cells are checked (a serial walk), so their fresh
     // pages are first written on the other core.
     std::vector<std::vector<float>> point_values(pending_.size());
-    tbb::task_group points_task;
-    points_task.run([&] {
+    auto convert_points = [&] {
       set_positions(grid, points_.data, npoints_);
       for (size_t i = 0; i < pending_.size(); ++i)
         if (!pending_[i].cell) point_values[i] = io::point_values(pending_[i].data, pending_[i].ncomp, npoints_);
-    });
+    };
+    tbb::task_group points_task;
+    bool const small = 3 * npoints_ <= convert_grain && ncells_ <= cell_grain;  // not worth waking the thread pool
+    if (small) convert_points();
+    else points_task.run(convert_points);
     CellKinds kinds;
     try {
       if (new_layout_) {
