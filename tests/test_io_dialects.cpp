@@ -24,7 +24,8 @@ using namespace cellray;
 namespace {
 
 /// The grid every dialect writes: one of each cell kind the readers keep,
-/// plus a wedge (skipped when asked), with point and cell arrays.
+/// a wedge and a pyramid, plus a quadratic triangle (a 2D cell: skipped when
+/// asked), with point and cell arrays.
 struct TestGrid {
   std::vector<double> xyz;
   std::vector<int> types;
@@ -53,7 +54,9 @@ TestGrid make_grid(bool with_wedge) {
   add(12, {4, 5, 6, 7, 8, 9, 10, 11}, -2.25);
   add(24, {12, 13, 14, 15, 0, 1, 2, 3, 4, 5}, 7.0);
   add(11, {16, 17, 18, 19, 20, 21, 22, 23}, 0.0625);
-  if (with_wedge) add(13, {0, 1, 2, 3, 4, 5}, 99.0);
+  add(13, {6, 7, 8, 9, 10, 11}, 4.75);   // wedge: a collapsed hexahedron
+  add(14, {20, 21, 22, 23, 1}, -0.5);     // pyramid: likewise
+  if (with_wedge) add(22, {0, 1, 2, 3, 4, 5}, 99.0);  // a quadratic triangle: not a volume cell
   add(25, {19, 18, 17, 16, 15, 14, 13, 12, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11}, 3.5);
   add(10, {23, 22, 21, 20}, -8.0);
   return g;
@@ -76,6 +79,12 @@ void check_grid(UnstructuredGrid const& r, TestGrid const& g, bool velocity_read
       phex.push_back(float(g.pressure[c]));
     } else if (t == 11) {
       for (int k : {0, 1, 3, 2, 4, 5, 7, 6}) hexes.push_back(uint32_t(ids[k]));
+      phex.push_back(float(g.pressure[c]));
+    } else if (t == 13) {  // VTK's wedge: triangle 0 1 2 facing away from 3 4 5
+      for (int k : {0, 2, 1, 1, 3, 5, 4, 4}) hexes.push_back(uint32_t(ids[k]));
+      phex.push_back(float(g.pressure[c]));
+    } else if (t == 14) {  // quad 0 1 2 3 facing the apex 4
+      for (int k : {0, 1, 2, 3, 4, 4, 4, 4}) hexes.push_back(uint32_t(ids[k]));
       phex.push_back(float(g.pressure[c]));
     }
   }
@@ -377,7 +386,7 @@ TEST_CASE("legacy VTK round trips in every dialect", "[io][legacy]") {
             bool ignored_time = false;
             for (auto const& a : r.report.arrays_ignored) ignored_time |= a.find("TimeValue") != std::string::npos;
             CHECK(ignored_time);
-            if (wedge) CHECK_THROWS_WITH(read_vtk_legacy_from_memory(bytes, "mem.vtk"), Catch::Contains("1 wedge"));
+            if (wedge) CHECK_THROWS_WITH(read_vtk_legacy_from_memory(bytes, "mem.vtk"), Catch::Contains("1 quadratic_triangle"));
           }
   }
 }
@@ -414,8 +423,8 @@ TEST_CASE("VTU round trips in every encoding", "[io][vtu]") {
       check_grid(r, g);
       CHECK(r.report.skipped_count() == (wedge ? 1u : 0u));
       if (wedge) {
-        CHECK(r.report.cells_skipped.at(13) == 1);
-        CHECK_THROWS_WITH(read_vtu_from_memory(bytes, "mem.vtu"), Catch::Contains("1 wedge"));
+        CHECK(r.report.cells_skipped.at(22) == 1);
+        CHECK_THROWS_WITH(read_vtu_from_memory(bytes, "mem.vtu"), Catch::Contains("1 quadratic_triangle"));
       }
     }
   }
@@ -458,7 +467,7 @@ TEST_CASE("hand-written legacy quirks: CRLF, %20 names, TENSORS, COLOR_SCALARS, 
 TEST_CASE("read_mesh dispatches on the extension and names an unknown one", "[io]") {
   TestGrid const g = make_grid(false);
   CHECK(read_mesh_from_memory(write_legacy(g, {}), "x.VTK").tet_count() == 3);
-  CHECK(read_mesh_from_memory(write_vtu(g, {}), "dir.v/x.vtu").hex_count() == 3);
+  CHECK(read_mesh_from_memory(write_vtu(g, {}), "dir.v/x.vtu").hex_count() == 5);  // with a wedge and a pyramid
   CHECK_THROWS_WITH(read_mesh_from_memory("", "mesh.msh"), Catch::Contains("mesh.msh") && Catch::Contains("'.msh'"));
   CHECK_THROWS_WITH(read_mesh("/nonexistent/file.vtk"), Catch::Contains("/nonexistent/file.vtk") && Catch::Contains("cannot open"));
   CHECK_THROWS_AS(read_mesh("no_extension"), IoError);
@@ -490,7 +499,8 @@ TEST_CASE("cell_to_point averages the cells around each vertex", "[io]") {
 
 TEST_CASE("legacy VTK with more cells than one parallel task: ids in order, first bad id named", "[io][legacy]") {
   // 50,000 cells cross several 16,384-cell tasks of the parallel copy; a mix of
-  // kinds (and skipped wedges) makes each task's first output slot differ.
+  // kinds (wedges read as hexahedra, quadratic triangles skipped) makes each
+  // task's first output slot differ.
   TestGrid g;
   int const np = 24;  // write_legacy writes 24 points
   for (int i = 0; i < np; ++i) {
@@ -506,7 +516,8 @@ TEST_CASE("legacy VTK with more cells than one parallel task: ids in order, firs
     if (kind == 0) g.types.push_back(10), g.cells.push_back({v(0), v(1), v(2), v(3)});
     else if (kind == 1) g.types.push_back(12), g.cells.push_back({v(0), v(1), v(2), v(3), v(4), v(5), v(6), v(7)});
     else if (kind == 2) g.types.push_back(11), g.cells.push_back({v(0), v(1), v(2), v(3), v(4), v(5), v(6), v(7)});
-    else g.types.push_back(13), g.cells.push_back({v(0), v(1), v(2), v(3), v(4), v(5)});
+    else if (c % 2 == 0) g.types.push_back(13), g.cells.push_back({v(0), v(1), v(2), v(3), v(4), v(5)});
+    else g.types.push_back(22), g.cells.push_back({v(0), v(1), v(2), v(3), v(4), v(5)});  // skipped
     g.pressure.push_back(0.5 * c);
   }
   std::vector<uint32_t> tets, hexes;
@@ -516,9 +527,11 @@ TEST_CASE("legacy VTK with more cells than one parallel task: ids in order, firs
     if (g.types[c] == 10) {
       for (int k = 0; k < 4; ++k) tets.push_back(uint32_t(ids[k]));
       ptet.push_back(float(g.pressure[c]));
-    } else if (g.types[c] != 13) {
+    } else if (g.types[c] != 22) {
       static constexpr int voxel_order[8] = {0, 1, 3, 2, 4, 5, 7, 6};
-      for (int k = 0; k < 8; ++k) hexes.push_back(uint32_t(ids[size_t(g.types[c] == 11 ? voxel_order[k] : k)]));
+      static constexpr int wedge_order[8] = {0, 2, 1, 1, 3, 5, 4, 4};
+      int const* order = g.types[c] == 11 ? voxel_order : g.types[c] == 13 ? wedge_order : nullptr;
+      for (int k = 0; k < 8; ++k) hexes.push_back(uint32_t(ids[size_t(order ? order[k] : k)]));
       phex.push_back(float(g.pressure[c]));
     }
   }

@@ -93,17 +93,13 @@ TEST_CASE("vtk-data/notch_stress_fixed.vtk (5.1 BINARY, hexes + 4 wedges)", "[io
   auto const file = test::shared_data_file("vtk-data/notch_stress_fixed.vtk");
   if (!file) return;
   std::string const& path = *file;
-  CHECK_THROWS_WITH(read_mesh(path), Catch::Contains(path) && Catch::Contains("4 wedge") &&
-                                         Catch::Contains("skip_unsupported_cells"));
-  ReadOptions skip;
-  skip.skip_unsupported_cells = true;
-  UnstructuredGrid const g = read_mesh(path, skip);
+  UnstructuredGrid const g = read_mesh(path);
   CHECK(g.report.format == "legacy VTK 5.1 BINARY");
-  CHECK(g.hex_count() == 2188);
+  CHECK(g.hex_count() == 2188 + 4);  // the wedges as collapsed hexahedra
   CHECK(g.tet_count() == 0);
   CHECK(g.report.cells_read.at(12) == 2188);
-  CHECK(g.report.cells_skipped.at(13) == 4);
-  CHECK(g.report.skipped_count() == 4);
+  CHECK(g.report.cells_read.at(13) == 4);
+  CHECK(g.report.skipped_count() == 0);
   CHECK(g.vertex_count() == 3537);
   check_point(g, "Nodal Stress-0", -1.45362e5, 8.10777e6);
   check_point(g, "Nodal Stress-normed", 3206.61, 8.1098e6);
@@ -198,19 +194,22 @@ TEST_CASE("vtk-data/kiefer_dataset.vtu (base64 zlib, tetra10, cell data only)", 
 
 TEST_CASE("openfoam/flange_heat.vtk (2.0 BINARY, hexes + 372 wedges, FIELD arrays)", "[io][data]") {
   std::string const path = real_file("openfoam/flange_heat.vtk");
-  CHECK_THROWS_WITH(read_mesh(path), Catch::Contains(path) && Catch::Contains("372 wedge"));
-  ReadOptions skip;
-  skip.skip_unsupported_cells = true;
-  UnstructuredGrid const g = read_mesh(path, skip);
-  CHECK(g.hex_count() == 5340);
-  CHECK(g.report.cells_skipped.at(13) == 372);
+  UnstructuredGrid const g = read_mesh(path);
+  CHECK(g.hex_count() == 5340 + 372);  // the wedges as collapsed hexahedra
+  CHECK(g.report.cells_read.at(13) == 372);
+  CHECK(g.report.skipped_count() == 0);
   CHECK(g.vertex_count() == 7189);
   check_point(g, "T", 273, 573);
-  // The README's cell range covers the wedges too; the hexes' range lies inside it.
+  // The README's cell range: hexes and wedges.
   auto const [lo, hi] = range(g.cell_array("T")->hex_values);
-  CHECK(lo >= 273.002f * (1 - 6e-6f));
-  CHECK(hi <= 572.837f * (1 + 6e-6f));
-  CHECK(g.cell_array("T")->hex_values.size() == 5340);
+  CHECK(lo == Approx(273.002).epsilon(6e-6));
+  CHECK(hi == Approx(572.837).epsilon(6e-6));
+  CHECK(g.cell_array("T")->hex_values.size() == 5340 + 372);
+  // Every wedge repeats two corners: 1 2 2 and 4 5 5 of its hexahedron.
+  uint64_t collapsed = 0;
+  for (uint64_t c = 0; c < g.hex_count(); ++c)
+    collapsed += g.hexes[8 * c + 2] == g.hexes[8 * c + 3] && g.hexes[8 * c + 6] == g.hexes[8 * c + 7];
+  CHECK(collapsed == 372);
   check_views(g);
 }
 

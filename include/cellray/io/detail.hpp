@@ -33,6 +33,7 @@
 #include <tbb/parallel_for.h>
 
 #include "../error.hpp"
+#include "../mesh/vtk_cells.hpp"
 #include "grid.hpp"
 
 namespace cellray {
@@ -473,10 +474,30 @@ inline CellKind classify_cell(int64_t type, uint64_t& nodes, bool& exact) {
     case 29: nodes = 27; return CellKind::hex;
     case 33: nodes = 24; return CellKind::hex;
     case 72: case 79: nodes = 8; exact = false; return CellKind::hex;
+    // Wedges and pyramids become collapsed hexahedra (mesh/vtk_cells.hpp:
+    // VTK's own interpolation); quadratic and higher-order ones keep their corners.
+    case 13: nodes = 6; return CellKind::hex;
+    case 26: nodes = 15; return CellKind::hex;
+    case 32: nodes = 18; return CellKind::hex;
+    case 73: case 80: nodes = 6; exact = false; return CellKind::hex;
+    case 14: nodes = 5; return CellKind::hex;
+    case 27: nodes = 13; return CellKind::hex;
     default:
       nodes = 0;
       if (type < 0 || type > 81) return CellKind::unknown;
       return std::string_view(vtk_cell_type_name(int(type))) == "unknown" ? CellKind::unknown : CellKind::unsupported;
+  }
+}
+
+/// Where hexahedron corner k of a kept hex-kind cell of VTK type `type` is
+/// in the cell's vertex list: voxels reorder, wedges and pyramids repeat.
+inline int const* hex_corner_order(int64_t type) {
+  static constexpr int identity[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+  switch (type) {
+    case 11: return voxel_as_hex.data();
+    case 13: case 26: case 32: case 73: case 80: return wedge_as_hex.data();
+    case 14: case 27: return pyramid_as_hex.data();
+    default: return identity;
   }
 }
 
@@ -513,7 +534,6 @@ void fill_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, Sp
   auto const& first_tet = tasks.first_tet;
   auto const& first_hex = tasks.first_hex;
   auto const& walks = tasks.walks;
-  static constexpr int voxel_order[8] = {0, 1, 3, 2, 4, 5, 7, 6};
   bool bad = false;
   with_ints(conn, [&](auto const get) {
     std::vector<unsigned char> chunk_bad(nchunks, 0);
@@ -534,10 +554,10 @@ void fill_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, Sp
             }
             tet += 4;
           } else {
-            // A voxel orders its corners like a pixel grid (0 1 3 2 / 4 5 7 6 as a hexahedron).
-            bool const voxel = types.as_int(c) == 11;
+            // Voxels, wedges and pyramids: their corners in hexahedron order.
+            int const* order = hex_corner_order(types.as_int(c));
             for (int k = 0; k < 8; ++k) {
-              int64_t const v = get(b + uint64_t(voxel ? voxel_order[k] : k));
+              int64_t const v = get(b + uint64_t(order[k]));
               out_of_range |= uint64_t(uint64_t(v) >= npoints);
               hex[k] = uint32_t(v);
             }
@@ -557,9 +577,9 @@ void fill_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, Sp
   for (uint64_t c = 0; c < ncells; ++c) {
     if (kinds[c] == 2) continue;
     uint64_t const b = walk(c).first;
-    bool const voxel = kinds[c] == 1 && types.as_int(c) == 11;
+    int const* order = kinds[c] == 1 ? hex_corner_order(types.as_int(c)) : nullptr;
     for (int k = 0; k < (kinds[c] == 0 ? 4 : 8); ++k) {
-      uint64_t const at = b + uint64_t(voxel ? voxel_order[k] : k);
+      uint64_t const at = b + uint64_t(order ? order[k] : k);
       int64_t const v = conn.as_int(at);
       if (v < 0 || uint64_t(v) >= npoints)
         throw IoError(where.conn(at) + "cell " + std::to_string(c) + " uses vertex id " + std::to_string(v) +
@@ -629,7 +649,7 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
         first = std::min(first, first_unsupported[t]);
       }
     }
-    throw IoError(where.type(first) + "unsupported cells: " + list + "; cellray reads tetrahedra and hexahedra only " +
+    throw IoError(where.type(first) + "unsupported cells: " + list + "; cellray reads tetrahedra, pyramids, wedges and hexahedra, and polyhedra from .vtu " +
                   "(set ReadOptions::skip_unsupported_cells to skip them)");
   }
   for (int t = 0; t < 82; ++t) {
@@ -638,7 +658,7 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
     CellKind const k = classify_cell(t, nodes, exact);
     if (!per_type[t]) continue;
     if (k == CellKind::unsupported) grid.report.cells_skipped[t] = per_type[t];
-    if (t != 10 && t != 12 && (k == CellKind::tet || k == CellKind::hex || k == CellKind::voxel))
+    if (t != 10 && t != 12 && t != 13 && t != 14 && (k == CellKind::tet || k == CellKind::hex || k == CellKind::voxel))
       grid.report.reduced_to_linear += per_type[t];
   }
   // Counts were checked against the connectivity present (each kept cell has

@@ -42,8 +42,8 @@ put("cell_types_count.vtk", HEAD + PTS + "CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 2\n10
 put("bad_index.vtk", HEAD + PTS + "CELLS 2 10\n4 0 1 2 3\n4 0 1 2 9\nCELL_TYPES 2\n10\n10\n")
 put("negative_index.vtk", HEAD + PTS + "CELLS 1 5\n4 0 -1 2 3\nCELL_TYPES 1\n10\n")
 put("unknown_cell_type.vtk", HEAD + PTS + "CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n99\n")
-put("wedge.vtk", HEAD + "POINTS 6 float\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 0 1\n0 1 1\n"
-    "CELLS 1 7\n6 0 1 2 3 4 5\nCELL_TYPES 1\n13\n")
+put("quadratic_triangle.vtk", HEAD + "POINTS 6 float\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 0 1\n0 1 1\n"
+    "CELLS 1 7\n6 0 1 2 3 4 5\nCELL_TYPES 1\n22\n")
 put("tet_three_ids.vtk", HEAD + PTS + "CELLS 1 4\n3 0 1 2\nCELL_TYPES 1\n10\n")
 put("point_data_count.vtk", HEAD + PTS + TET + "POINT_DATA 5\nSCALARS s float\nLOOKUP_TABLE default\n1 2 3 4 5\n")
 put("cell_data_count.vtk", HEAD + PTS + TET + "CELL_DATA 2\nSCALARS s float\nLOOKUP_TABLE default\n1 2\n")
@@ -125,9 +125,9 @@ put("unknown_cell_type.vtu", vtu(piece(P_OK, C_OK, O_OK, ascii_da("types", "UInt
 put("offsets_decreasing.vtu", vtu(piece(P_OK, ascii_da("connectivity", "Int64", "0 1 2 3 0 1 2 3"),
                                         ascii_da("offsets", "Int64", "4 3"), ascii_da("types", "UInt8", "10 10"),
                                         ncells=2)))
-put("wedge.vtu", vtu(piece(ascii_da("Points", "Float32", "0 0 0 1 0 0 0 1 0 0 0 1 1 0 1 0 1 1", 3),
+put("quadratic_triangle.vtu", vtu(piece(ascii_da("Points", "Float32", "0 0 0 1 0 0 0 1 0 0 0 1 1 0 1 0 1 1", 3),
                            ascii_da("connectivity", "Int64", "0 1 2 3 4 5"), ascii_da("offsets", "Int64", "6"),
-                           ascii_da("types", "UInt8", "13"), npts=6)))
+                           ascii_da("types", "UInt8", "22"), npts=6)))
 put("unknown_data_type.vtu", vtu(piece(P_OK.replace("Float32", "Float16"), C_OK, O_OK, T_OK)))
 put("unknown_format.vtu", vtu(piece(P_OK.replace('format="ascii"', 'format="hex"'), C_OK, O_OK, T_OK)))
 put("bad_header_type.vtu", vtu(piece(P_OK, C_OK, O_OK, T_OK)).replace(b'header_type="UInt32"', b'header_type="UInt16"'))
