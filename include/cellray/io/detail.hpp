@@ -458,7 +458,7 @@ std::vector<T> parse_ascii_numbers(Source const& src, uint64_t& pos, uint64_t co
 }
 
 /// How a VTK cell type is read.
-enum class CellKind : uint8_t { tet, hex, voxel, unsupported, unknown };
+enum class CellKind : uint8_t { tet, hex, voxel, polyhedron, unsupported, unknown };
 
 /// Kind of a VTK cell type id and the vertex count it needs (`exact`) or at
 /// least needs (`!exact`, Lagrange/Bezier of any order).
@@ -481,6 +481,7 @@ inline CellKind classify_cell(int64_t type, uint64_t& nodes, bool& exact) {
     case 32: nodes = 18; return CellKind::hex;
     case 73: case 80: nodes = 6; exact = false; return CellKind::hex;
     case 14: nodes = 5; return CellKind::hex;
+    case 42: nodes = 4; exact = false; return CellKind::polyhedron;  // its distinct points; faces apart
     case 27: nodes = 13; return CellKind::hex;
     default:
       nodes = 0;
@@ -501,7 +502,8 @@ inline int const* hex_corner_order(int64_t type) {
   }
 }
 
-/// Per original cell: 0 = kept tet, 1 = kept hex, 2 = skipped (for splitting cell arrays).
+/// Per original cell: 0 = kept tet, 1 = kept hex, 2 = skipped, 3 = polyhedron
+/// (decomposed by the reader afterwards; for splitting cell arrays).
 using CellKinds = std::vector<uint8_t>;
 
 /// Where errors about cells point: `conn(k)` for connectivity entry k,
@@ -544,7 +546,7 @@ void fill_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, Sp
         uint32_t* hex = grid.hexes.data() + 8 * first_hex[j];
         uint64_t out_of_range = 0;
         for (uint64_t c = j * cell_grain, e = std::min(ncells, c + cell_grain); c < e; ++c) {
-          if (kinds[c] == 2) continue;
+          if (kinds[c] >= 2) continue;
           uint64_t const b = walk(c).first;
           if (kinds[c] == 0) {
             for (int k = 0; k < 4; ++k) {
@@ -575,7 +577,7 @@ void fill_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, Sp
   if (!bad) return;
   SpanFn walk = span;
   for (uint64_t c = 0; c < ncells; ++c) {
-    if (kinds[c] == 2) continue;
+    if (kinds[c] >= 2) continue;
     uint64_t const b = walk(c).first;
     int const* order = kinds[c] == 1 ? hex_corner_order(types.as_int(c)) : nullptr;
     for (int k = 0; k < (kinds[c] == 0 ? 4 : 8); ++k) {
@@ -593,9 +595,12 @@ void fill_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, Sp
 /// ranges already checked to lie within `conn`. Checks types, vertex counts
 /// per type and every kept vertex id against `npoints`; fills the cell counts
 /// of the report. Returns the kind of each cell.
+/// Polyhedra (VTK 42) are kind 3 when the format gives their faces
+/// (`polyhedra`: VTU), else unsupported.
 template <class SpanFn>
 CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, SpanFn span, uint64_t npoints,
-                      ReadOptions const& opts, UnstructuredGrid& grid, CellLocator const& where) {
+                      ReadOptions const& opts, UnstructuredGrid& grid, CellLocator const& where,
+                      bool polyhedra = false) {
   if (!is_integer(types.type)) throw IoError(where.type(0) + "cell types are stored as " + num_name(types.type) + ", not integers");
   if (!is_integer(conn.type))
     throw IoError(where.conn(0) + "cell connectivity is stored as " + num_name(conn.type) + ", not integers");
@@ -613,7 +618,8 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
     int64_t const t = type_of(c);
     uint64_t nodes = 0;
     bool exact = true;
-    CellKind const kind = classify_cell(t, nodes, exact);
+    CellKind kind = classify_cell(t, nodes, exact);
+    if (kind == CellKind::polyhedron && !polyhedra) kind = CellKind::unsupported;
     if (kind == CellKind::unknown)
       throw IoError(where.type(c) + "cell " + std::to_string(c) + " has unknown VTK cell type " + std::to_string(t));
     auto const [b, e] = span(c);
@@ -629,6 +635,8 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
     } else if (kind == CellKind::hex || kind == CellKind::voxel) {
       ++nhexes;
       kinds[c] = 1;
+    } else if (kind == CellKind::polyhedron) {
+      kinds[c] = 3;
     } else {
       ++nunsupported;
       kinds[c] = 2;
@@ -643,7 +651,8 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
     for (int t = 0; t < 82; ++t) {
       uint64_t nodes;
       bool exact;
-      if (per_type[t] && classify_cell(t, nodes, exact) == CellKind::unsupported) {
+      CellKind const k = classify_cell(t, nodes, exact);
+      if (per_type[t] && (k == CellKind::unsupported || (k == CellKind::polyhedron && !polyhedra))) {
         list += (list.empty() ? "" : ", ") + std::to_string(per_type[t]) + " " + vtk_cell_type_name(t) +
                 " (VTK type " + std::to_string(t) + ")";
         first = std::min(first, first_unsupported[t]);
@@ -657,7 +666,7 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
     bool exact;
     CellKind const k = classify_cell(t, nodes, exact);
     if (!per_type[t]) continue;
-    if (k == CellKind::unsupported) grid.report.cells_skipped[t] = per_type[t];
+    if (k == CellKind::unsupported || (k == CellKind::polyhedron && !polyhedra)) grid.report.cells_skipped[t] = per_type[t];
     if (t != 10 && t != 12 && t != 13 && t != 14 && (k == CellKind::tet || k == CellKind::hex || k == CellKind::voxel))
       grid.report.reduced_to_linear += per_type[t];
   }
@@ -732,8 +741,10 @@ inline void add_point_array(UnstructuredGrid& grid, std::string name, NumArray c
   add_point_array(grid, std::move(name), std::move(values), ncomp);
 }
 
-/// Adds a cell array with one tuple per file cell, split by `kinds`.
-inline void add_cell_array(UnstructuredGrid& grid, std::string name, NumArray const& a, int ncomp, CellKinds const& kinds) {
+/// Adds a cell array with one tuple per file cell, split by `kinds`; the
+/// values of polyhedra (kind 3) go to `polyhedra_values` when given.
+inline void add_cell_array(UnstructuredGrid& grid, std::string name, NumArray const& a, int ncomp, CellKinds const& kinds,
+                           std::vector<float>* polyhedra_values = nullptr) {
   if (grid.cell_array(name)) {
     grid.report.arrays_ignored.push_back("cell '" + name + "' (a second cell array with that name)");
     return;
@@ -753,6 +764,7 @@ inline void add_cell_array(UnstructuredGrid& grid, std::string name, NumArray co
       for (uint64_t i = 0; i < kinds.size(); ++i) {
         if (kinds[i] == 0) c.tet_values.push_back(tuple_value(get, i, ncomp));
         else if (kinds[i] == 1) c.hex_values.push_back(tuple_value(get, i, ncomp));
+        else if (kinds[i] == 3 && polyhedra_values) polyhedra_values->push_back(tuple_value(get, i, ncomp));
       }
     });
   }

@@ -128,6 +128,11 @@ struct ReadReport {
   std::map<int, uint64_t> cells_read;     ///< VTK cell type id -> cells of that type in the file
   std::map<int, uint64_t> cells_skipped;  ///< VTK cell type id -> cells dropped (skip option)
   uint64_t reduced_to_linear = 0;  ///< quadratic / higher-order / voxel cells kept as linear corner cells
+  /// Polyhedra (VTU) decomposed around an added centre point each: into
+  /// this many tetrahedra (triangle faces) and pyramids (quad faces; the
+  /// pyramids are among the hexahedra, collapsed). Wedges and pyramids of
+  /// the file are hexahedra too (mesh/vtk_cells.hpp).
+  uint64_t polyhedra_split = 0, polyhedron_tets = 0, polyhedron_pyramids = 0;
   std::vector<std::string> arrays_read;     ///< "point 'T'", "cell 'EQPS'", "point 'DISPL' (3 components, magnitude)"
   std::vector<std::string> arrays_ignored;  ///< with the reason, e.g. "field 'TimeValue' (dataset field data)"
 
@@ -144,6 +149,9 @@ struct ReadReport {
     s << file << ": " << format << "\n  cells:";
     for (auto const& [type, count] : cells_read) s << " " << count << " " << vtk_cell_type_name(type);
     if (reduced_to_linear) s << "\n  " << reduced_to_linear << " higher-order cells read as linear corner cells";
+    if (polyhedra_split)
+      s << "\n  " << polyhedra_split << " polyhedra split into " << polyhedron_tets << " tetrahedra and "
+        << polyhedron_pyramids << " pyramids around " << polyhedra_split << " added centre points";
     for (auto const& [type, count] : cells_skipped) s << "\n  skipped " << count << " " << vtk_cell_type_name(type);
     for (auto const& a : arrays_read) s << "\n  read " << a;
     for (auto const& a : arrays_ignored) s << "\n  ignored " << a;

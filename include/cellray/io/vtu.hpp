@@ -297,16 +297,19 @@ class VtuParser {
     CellLocator where;
     where.conn = [&](uint64_t) { return src_.at_line(offset(conn_el)) + "connectivity: "; };
     where.type = [&](uint64_t) { return src_.at_line(offset(type_el)) + "types: "; };
+    pugi::xml_node const faces_el = optional_named(cells, "faces"), face_offsets_el = optional_named(cells, "faceoffsets");
     CellKinds const kinds = build_cells(
         nc, types, conn,
         [&offsets](uint64_t c) {
           return std::pair<uint64_t, uint64_t>(c ? uint64_t(offsets.as_int(c - 1)) : 0, uint64_t(offsets.as_int(c)));
         },
-        np, opts_, grid, where);
+        np, opts_, grid, where, /*polyhedra=*/true);
     set_positions(grid, xyz, np);
 
     for (pugi::xml_node a : piece.child("PointData").children()) array(grid, a, np, false, kinds);
     for (pugi::xml_node a : piece.child("CellData").children()) array(grid, a, nc, true, kinds);
+    if (std::find(kinds.begin(), kinds.end(), uint8_t(3)) != kinds.end())
+      split_polyhedra(grid, kinds, faces_el, face_offsets_el, cells);
     for (pugi::xml_node a : ug.child("FieldData").children())
       grid.report.arrays_ignored.push_back("field " + in_quotes(a.attribute("Name").value()) + " (dataset field data)");
 
@@ -326,6 +329,7 @@ class VtuParser {
   bool appended_ = false, appended_base64_ = false, compressed_ = false, big_endian_ = false, swap_ = false;
   uint64_t appended_base_ = 0, appended_end_ = 0, header_size_ = 4;
   std::set<std::string> formats_;
+  std::vector<std::pair<std::string, std::vector<float>>> polyhedra_values_;  // per cell array
 
   uint64_t offset(pugi::xml_node n) const {
     ptrdiff_t const o = n.offset_debug();
@@ -375,9 +379,13 @@ class VtuParser {
     return int(c);
   }
   pugi::xml_node named(pugi::xml_node cells, char const* name) const {
+    if (pugi::xml_node a = optional_named(cells, name)) return a;
+    src_.fail_line(offset(cells), std::string("Cells has no DataArray named '") + name + "'");
+  }
+  static pugi::xml_node optional_named(pugi::xml_node cells, char const* name) {
     for (pugi::xml_node a : cells.children("DataArray"))
       if (std::string_view(a.attribute("Name").value()) == name) return a;
-    src_.fail_line(offset(cells), std::string("Cells has no DataArray named '") + name + "'");
+    return {};
   }
 
   /// The [begin, end) file range of an element's inline text (first PCDATA).
@@ -541,8 +549,118 @@ class VtuParser {
     uint64_t count = 0;
     if (!checked_mul(tuples, uint64_t(ncomp), count)) src_.fail_line(offset(a), in_quotes(name) + ": too many values");
     NumArray const data = decode(a, count, std::string(where) + " array " + in_quotes(name));
-    if (cell) add_cell_array(grid, std::move(name), data, ncomp, kinds);
-    else add_point_array(grid, std::move(name), data, ncomp);
+    if (cell) {
+      std::vector<float> poly;
+      add_cell_array(grid, name, data, ncomp, kinds, &poly);
+      if (grid.cell_arrays.back().name == name) polyhedra_values_.emplace_back(name, std::move(poly));
+    } else {
+      add_point_array(grid, std::move(name), data, ncomp);
+    }
+  }
+
+  /// Each polyhedron (kind 3) becomes tetrahedra and pyramids (collapsed
+  /// hexahedra) around an added centre point (mesh/vtk_cells.hpp), appended
+  /// after the file's cells, as foamToVTK -poly-decomp and ParaView do. The
+  /// centre is the volume centroid; its value in a point array is the
+  /// polyhedron's own value when a cell array has the same name (foamToVTK:
+  /// the cell's value at the cell centre), else the mean of its vertices.
+  /// The new cells carry the polyhedron's cell-array values.
+  void split_polyhedra(UnstructuredGrid& grid, CellKinds const& kinds, pugi::xml_node faces_el,
+                       pugi::xml_node face_offsets_el, pugi::xml_node cells) {
+    if (!faces_el || !face_offsets_el)
+      src_.fail_line(offset(cells), "polyhedra (VTK type 42) need the DataArrays 'faces' and 'faceoffsets'");
+    uint64_t const nc = kinds.size(), np = grid.vertex_count();
+    NumArray const face_offsets = decode(face_offsets_el, nc, "faceoffsets");
+    int64_t end = 0;
+    for (uint64_t c = 0; c < nc; ++c) end = std::max(end, face_offsets.as_int(c));
+    NumArray const faces = decode(faces_el, uint64_t(end), "faces");
+    std::string const at = src_.at_line(offset(faces_el)) + "faces: ";
+    // Each polyhedron's cell-array values, in polyhedron order.
+    std::vector<std::pair<std::string, std::vector<float>>> const& cell_values = polyhedra_values_;
+    std::vector<float> centre_xyz;
+    std::vector<std::vector<float>> centre_values(grid.point_arrays.size());
+    std::vector<CellArray*> cell_arrays;
+    for (auto const& [name, values] : cell_values) {
+      (void)values;
+      cell_arrays.push_back(nullptr);
+      for (auto& a : grid.cell_arrays)
+        if (a.name == name) cell_arrays.back() = &a;
+    }
+    uint64_t k = 0;  // polyhedron index
+    int64_t prev_end = 0;
+    PolyhedronFaces f;
+    for (uint64_t c = 0; c < nc; ++c) {
+      int64_t const stop = face_offsets.as_int(c);
+      if (kinds[c] != 3) {
+        if (stop >= 0) prev_end = stop;
+        continue;
+      }
+      if (stop < prev_end)
+        src_.fail_line(offset(face_offsets_el), "faceoffsets: polyhedron cell " + std::to_string(c) + " ends at " +
+                                                    std::to_string(stop) + ", before its start " + std::to_string(prev_end));
+      // [nfaces, n0, ids..., n1, ids...] in faces[prev_end, stop)
+      uint64_t i = uint64_t(prev_end);
+      auto next = [&]() -> int64_t {
+        if (i >= uint64_t(stop))
+          throw IoError(at + "polyhedron cell " + std::to_string(c) + ": its face stream ends early");
+        return faces.as_int(i++);
+      };
+      int64_t const nfaces = next();
+      if (nfaces < 4 || nfaces > stop - prev_end)
+        throw IoError(at + "polyhedron cell " + std::to_string(c) + " declares " + std::to_string(nfaces) + " faces");
+      f.ids.clear();
+      f.offsets.assign(1, 0);
+      for (int64_t j = 0; j < nfaces; ++j) {
+        int64_t const n = next();
+        if (n < 3 || n > stop - int64_t(i))
+          throw IoError(at + "polyhedron cell " + std::to_string(c) + ": face " + std::to_string(j) + " declares " +
+                        std::to_string(n) + " vertices");
+        for (int64_t q = 0; q < n; ++q) f.ids.push_back(uint64_t(next()));  // negative: huge, caught below
+        f.offsets.push_back(f.ids.size());
+      }
+      if (std::string const bad = check_polyhedron(f, np); !bad.empty())
+        throw IoError(at + "polyhedron cell " + std::to_string(c) + " " + bad);
+      uint64_t const centre = np + k;
+      if (centre > std::numeric_limits<uint32_t>::max())
+        throw IoError(at + "the polyhedra's centre points pass 2^32 - 1 vertices");
+      PolyhedronSplit const split = decompose_polyhedron(f, grid.xyz.data(), centre);
+      for (int a = 0; a < 3; ++a) centre_xyz.push_back(float(split.centre[a]));
+      std::vector<uint64_t> verts(f.ids);
+      std::sort(verts.begin(), verts.end());
+      verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+      for (size_t a = 0; a < grid.point_arrays.size(); ++a) {
+        PointArray const& pa = grid.point_arrays[a];
+        float value = 0;
+        bool from_cell = false;
+        for (auto const& [name, values] : cell_values)
+          if (name == pa.name) value = values[k], from_cell = true;
+        if (!from_cell) {
+          double sum = 0;
+          for (uint64_t v : verts) sum += pa.values[v];
+          value = float(sum / double(verts.size()));
+        }
+        centre_values[a].push_back(value);
+      }
+      for (auto const& t : split.tets)
+        for (uint64_t v : t) grid.tets.push_back(uint32_t(v));
+      for (auto const& h : split.hexes)
+        for (uint64_t v : h) grid.hexes.push_back(uint32_t(v));
+      for (size_t a = 0; a < cell_arrays.size(); ++a) {
+        if (!cell_arrays[a]) continue;
+        float const v = cell_values[a].second[k];
+        cell_arrays[a]->tet_values.insert(cell_arrays[a]->tet_values.end(), split.tets.size(), v);
+        cell_arrays[a]->hex_values.insert(cell_arrays[a]->hex_values.end(), split.hexes.size(), v);
+      }
+      grid.report.polyhedron_tets += split.tets.size();
+      grid.report.polyhedron_pyramids += split.hexes.size();
+      ++k;
+      prev_end = stop;
+    }
+    grid.report.polyhedra_split = k;
+    grid.xyz.insert(grid.xyz.end(), centre_xyz.begin(), centre_xyz.end());
+    for (size_t a = 0; a < grid.point_arrays.size(); ++a)
+      grid.point_arrays[a].values.insert(grid.point_arrays[a].values.end(), centre_values[a].begin(),
+                                         centre_values[a].end());
   }
 };
 

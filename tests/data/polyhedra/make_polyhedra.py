@@ -1,0 +1,52 @@
+#!/usr/bin/python3
+# Writes the small polyhedron files the io tests read (needs python3-vtk9):
+#   two_polyhedra.vtu  a unit cube written as a polyhedron (6 quads) and,
+#                      apart from it, a pentagonal prism (two pentagons,
+#                      five quads; z from 1.5 to 2), with point array
+#                      T = x + 2y + 3z, cell array T (10, 20) and cell
+#                      array id (1, 2);
+#   open_polyhedron.vtu      the cube without its top face;
+#   bad_face_id.vtu          a face naming point 99 of 14.
+import math, vtk
+
+def grid(drop_top=False, bad_id=False):
+    pts = vtk.vtkPoints()
+    cube = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
+    for p in cube: pts.InsertNextPoint(p)
+    for k in range(5):  # the prism's base ring at z = 1.5
+        a = 2 * math.pi * k / 5
+        pts.InsertNextPoint(0.5 + 0.5 * math.cos(a), 0.5 + 0.5 * math.sin(a), 1.5)
+    g = vtk.vtkUnstructuredGrid()
+    g.SetPoints(pts)
+    faces = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]]  # outward
+    if drop_top: faces = faces[:1] + faces[2:]
+    if bad_id: faces[1] = [4, 5, 6, 99]
+    stream = [len(faces)]
+    for f in faces: stream += [len(f)] + f
+    ids = vtk.vtkIdList()
+    for v in stream: ids.InsertNextId(v)
+    g.InsertNextCell(vtk.VTK_POLYHEDRON, ids)
+    # The pentagonal prism: the ring above and its lid at z = 2.
+    base = list(range(8, 13))
+    for k in range(5):
+        a = 2 * math.pi * k / 5
+        pts.InsertNextPoint(0.5 + 0.5 * math.cos(a), 0.5 + 0.5 * math.sin(a), 2.0)
+    lid = list(range(13, 18))
+    pf = [list(reversed(base)), lid] + [[base[k], base[(k + 1) % 5], lid[(k + 1) % 5], lid[k]] for k in range(5)]
+    stream = [len(pf)]
+    for f in pf: stream += [len(f)] + f
+    ids = vtk.vtkIdList()
+    for v in stream: ids.InsertNextId(v)
+    g.InsertNextCell(vtk.VTK_POLYHEDRON, ids)
+    t = vtk.vtkFloatArray(); t.SetName("T")
+    for i in range(g.GetNumberOfPoints()):
+        x, y, z = g.GetPoint(i); t.InsertNextValue(x + 2 * y + 3 * z)
+    g.GetPointData().AddArray(t)
+    ct = vtk.vtkFloatArray(); ct.SetName("T"); ct.InsertNextValue(10); ct.InsertNextValue(20)
+    cid = vtk.vtkFloatArray(); cid.SetName("id"); cid.InsertNextValue(1); cid.InsertNextValue(2)
+    g.GetCellData().AddArray(ct); g.GetCellData().AddArray(cid)
+    return g
+
+for name, kw in [("two_polyhedra.vtu", {}), ("open_polyhedron.vtu", {"drop_top": True}), ("bad_face_id.vtu", {"bad_id": True})]:
+    w = vtk.vtkXMLUnstructuredGridWriter()
+    w.SetFileName(name); w.SetDataModeToAscii(); w.SetInputData(grid(**kw)); w.Write()
