@@ -219,6 +219,13 @@ TEST_CASE("fast vs reference: post.vtk (tets) and disk_out_ref.vtu (hexes)", "[r
   fast_vs_reference({"disk_out_ref.vtu Temp", ld->scene(), 293.f, 913.f, {600.f}}, {0.005, 0.005, 0.005}, frame);
 }
 
+TEST_CASE("fast vs reference: flange_heat.vtk (hexes and 372 wedges as collapsed hexes)",
+          "[render][reference][isa][vtk-cells]") {
+  auto const flange = read_mesh(test::real_file("openfoam/flange_heat.vtk"));
+  auto const lf = load(flange.hex_mesh().with_array("T"));
+  fast_vs_reference({"flange_heat.vtk T", lf->scene(), 273.f, 573.f, {300.f}}, {0.005, 0.005, 0.005}, frame);
+}
+
 // ------------------------------------------------------------ failure modes
 // The numbers docs/failure_modes.md reports (scripts/failure-report.sh, at
 // 192x192), guarded here at 64x64 with bounds a few times above what was
