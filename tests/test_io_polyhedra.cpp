@@ -12,6 +12,7 @@
 #include <string>
 
 #include <cellray/io/read_mesh.hpp>
+#include <cellray/io/vtk_legacy.hpp>
 #include <cellray/mesh/validate.hpp>
 
 namespace test_io_polyhedra {
@@ -70,6 +71,33 @@ TEST_CASE("a polyhedron whose faces do not close, or name a missing point, is an
   CHECK_THROWS_WITH(read_mesh(file("bad_face_id.vtu")),
                     Catch::Contains("bad_face_id.vtu:") && Catch::Contains("polyhedron cell 0") &&
                         Catch::Contains("vertex id 99"));
+}
+
+}  // namespace test_io_polyhedra
+
+namespace test_io_polyhedra {
+
+TEST_CASE("collapsed cells: repeated ids keep the real shape; fewer than 4 distinct is an error or a skip",
+          "[io][polyhedra]") {
+  std::string const file =
+      "# vtk DataFile Version 3.0\ncollapsed\nASCII\nDATASET UNSTRUCTURED_GRID\n"
+      "POINTS 8 float\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n"
+      "CELLS 4 32\n"
+      "8 0 1 2 2 4 5 6 6\n"  // a wedge written as a hexahedron (OpenFOAM's prisms): kept
+      "8 0 1 1 0 4 4 4 4\n"  // 3 distinct: a triangle, no volume
+      "4 0 1 2 2\n"          // a tetrahedron with 3 distinct
+      "8 0 1 2 3 4 5 6 7\n"
+      "CELL_TYPES 4\n12\n12\n10\n12\n";
+  CHECK_THROWS_WITH(read_vtk_legacy_from_memory(file, "collapsed.vtk"),
+                    Catch::Contains("collapsed.vtk:") && Catch::Contains("cell 1 (hexahedron) has 3 distinct vertices"));
+  ReadOptions skip;
+  skip.skip_unsupported_cells = true;
+  UnstructuredGrid const g = read_vtk_legacy_from_memory(file, "collapsed.vtk", skip);
+  CHECK(g.hex_count() == 2);
+  CHECK(g.tet_count() == 0);
+  CHECK(g.report.cells_skipped.at(12) == 1);
+  CHECK(g.report.cells_skipped.at(10) == 1);
+  CHECK(g.hexes == std::vector<uint32_t>{0, 1, 2, 2, 4, 5, 6, 6, 0, 1, 2, 3, 4, 5, 6, 7});
 }
 
 }  // namespace test_io_polyhedra

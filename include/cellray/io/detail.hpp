@@ -31,6 +31,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include "../error.hpp"
 #include "../mesh/vtk_cells.hpp"
@@ -595,6 +596,66 @@ void fill_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, Sp
 /// ranges already checked to lie within `conn`. Checks types, vertex counts
 /// per type and every kept vertex id against `npoints`; fills the cell counts
 /// of the report. Returns the kind of each cell.
+/// Distinct vertex ids among n.
+inline int distinct_ids(uint32_t const* v, int n) {
+  int d = 0;
+  for (int i = 0; i < n; ++i) {
+    bool seen = false;
+    for (int j = 0; j < i; ++j) seen = seen || v[j] == v[i];
+    d += !seen;
+  }
+  return d;
+}
+
+/// A kept cell with fewer than 4 distinct vertices (a collapsed hexahedron,
+/// wedge or tetrahedron: no volume, no shape to render) is an error naming
+/// the cell and its place in the file, or with skip_unsupported_cells a
+/// skip counted under its type. Cells with repeated ids and 4 or more
+/// distinct ones are kept: they are the shape they really are (a hex with
+/// a collapsed face is a wedge or a pyramid, mesh/vtk_cells.hpp).
+template <class SpanFn>
+void drop_collapsed_cells(uint64_t ncells, NumArray const& types, SpanFn span, ReadOptions const& opts,
+                          UnstructuredGrid& grid, CellLocator const& where, CellKinds& kinds) {
+  uint64_t const nt = grid.tet_count(), nh = grid.hex_count();
+  auto bad_tet = [&](uint64_t i) { return distinct_ids(grid.tets.data() + 4 * i, 4) < 4; };
+  auto bad_hex = [&](uint64_t i) { return distinct_ids(grid.hexes.data() + 8 * i, 8) < 4; };
+  bool const any = tbb::parallel_reduce(
+      tbb::blocked_range<uint64_t>(0, nt + nh, uint64_t(1) << 14), false,
+      [&](tbb::blocked_range<uint64_t> const& r, bool acc) {
+        for (uint64_t i = r.begin(); i < r.end() && !acc; ++i) acc = i < nt ? bad_tet(i) : bad_hex(i - nt);
+        return acc;
+      },
+      [](bool a, bool b) { return a || b; });
+  if (!any) return;
+  // Rare: walk the file's cells in order, name the first or drop them all.
+  std::vector<uint32_t> tets, hexes;
+  uint64_t ti = 0, hi = 0;
+  for (uint64_t c = 0; c < ncells; ++c) {
+    if (kinds[c] != 0 && kinds[c] != 1) continue;
+    bool const tet = kinds[c] == 0;
+    bool const bad = tet ? bad_tet(ti) : bad_hex(hi);
+    if (bad) {
+      int64_t const t = types.as_int(c);
+      if (!opts.skip_unsupported_cells) {
+        uint32_t const* v = tet ? grid.tets.data() + 4 * ti : grid.hexes.data() + 8 * hi;
+        throw IoError(where.conn(span(c).first) + "cell " + std::to_string(c) + " (" + vtk_cell_type_name(int(t)) +
+                      ") has " + std::to_string(distinct_ids(v, tet ? 4 : 8)) +
+                      " distinct vertices: a collapsed cell needs at least 4 to have a volume "
+                      "(set ReadOptions::skip_unsupported_cells to skip such cells)");
+      }
+      ++grid.report.cells_skipped[int(t)];
+      kinds[c] = 2;
+    } else if (tet) {
+      tets.insert(tets.end(), grid.tets.begin() + long(4 * ti), grid.tets.begin() + long(4 * ti + 4));
+    } else {
+      hexes.insert(hexes.end(), grid.hexes.begin() + long(8 * hi), grid.hexes.begin() + long(8 * hi + 8));
+    }
+    (tet ? ti : hi) += 1;
+  }
+  grid.tets = std::move(tets);
+  grid.hexes = std::move(hexes);
+}
+
 /// Polyhedra (VTK 42) are kind 3 when the format gives their faces
 /// (`polyhedra`: VTU), else unsupported.
 template <class SpanFn>
@@ -677,6 +738,7 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
   tasks.first_tet.push_back(ntets);
   tasks.first_hex.push_back(nhexes);
   fill_cells(ncells, types, conn, span, npoints, grid, where, kinds, tasks);
+  drop_collapsed_cells(ncells, types, span, opts, grid, where, kinds);
   return kinds;
 }
 
