@@ -197,6 +197,43 @@ TEST_CASE("polyhedra decompose into cells that fill them", "[traverse][vtk-cells
     CHECK(volume == Approx(area * 1.5).epsilon(1e-6));
   }
 
+  {
+    // Two prisms sharing a (non-planar) pentagon, each listing it in its own
+    // rotation and direction: both fan it into the same triangles.
+    std::vector<float> pts = xyz;
+    pts[2] = 0.2f;  // lift one corner of the shared pentagon: not planar
+    for (int k = 0; k < 5; ++k) {
+      double const a = 2 * M_PI * k / 5;
+      pts.insert(pts.end(), {float(std::cos(a)), float(std::sin(a)), -1.5f});
+    }
+    PolyhedronFaces below;
+    auto face_b = [&](std::vector<uint64_t> ids) {
+      if (below.offsets.empty()) below.offsets.push_back(0);
+      below.ids.insert(below.ids.end(), ids.begin(), ids.end());
+      below.offsets.push_back(below.ids.size());
+    };
+    face_b({2, 3, 4, 0, 1});  // the shared face, seen from below: rotated and reversed w.r.t. f's {4, 3, 2, 1, 0}
+    face_b({14, 13, 12, 11, 10});
+    for (uint64_t k = 0; k < 5; ++k) face_b({(k + 1) % 5, k, k + 10, (k + 1) % 5 + 10});
+    REQUIRE(check_polyhedron(below, 15).empty());
+    auto shared = [](PolyhedronSplit const& s) {
+      std::vector<std::array<uint64_t, 3>> tri;
+      for (auto const& t : s.tets) {
+        std::array<uint64_t, 3> a{t[0], t[1], t[2]};
+        if (a[0] < 5 && a[1] < 5 && a[2] < 5) {
+          std::sort(a.begin(), a.end());
+          tri.push_back(a);
+        }
+      }
+      std::sort(tri.begin(), tri.end());
+      return tri;
+    };
+    auto const a = shared(decompose_polyhedron(f, pts.data(), 15));
+    auto const b = shared(decompose_polyhedron(below, pts.data(), 16));
+    CHECK(a.size() == 3);
+    CHECK(a == b);
+  }
+
   PolyhedronFaces open = f;  // drop the top face
   open.ids.erase(open.ids.begin() + long(open.offsets[1]), open.ids.begin() + long(open.offsets[2]));
   open.offsets.erase(open.offsets.begin() + 2);

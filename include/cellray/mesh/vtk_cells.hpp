@@ -21,7 +21,8 @@
 // Polyhedra (VTK 42) are decomposed around one added centre vertex, as
 // `foamToVTK -poly-decomp` and ParaView do: a triangle face and the centre
 // make a tetrahedron, a quad face and the centre a pyramid; a face of more
-// corners is fanned into triangles from its first corner.
+// corners is fanned into triangles from its lowest vertex id (the same
+// triangles from both cells that share it).
 
 #include <algorithm>
 #include <array>
@@ -143,8 +144,15 @@ inline PolyhedronSplit decompose_polyhedron(PolyhedronFaces const& f, float cons
       out.hexes.push_back({corner(b), corner(b + 1), corner(b + 2), corner(b + 3), centre_id, centre_id, centre_id,
                            centre_id});
     } else {
-      for (uint64_t k = b + 1; k + 1 < e; ++k)
-        out.tets.push_back({corner(b), corner(k), corner(k + 1), centre_id});
+      // Fanned from the face's lowest vertex id: the polyhedron on the other
+      // side of the face (which lists it in its own rotation) fans it the
+      // same way, so the two share every triangle (no gaps, no overlaps).
+      uint64_t const n = e - b;
+      uint64_t m = b;
+      for (uint64_t k = b; k < e; ++k)
+        if (corner(k) < corner(m)) m = k;
+      auto at = [&](uint64_t j) { return corner(b + (m - b + j) % n); };
+      for (uint64_t j = 1; j + 1 < n; ++j) out.tets.push_back({at(0), at(j), at(j + 1), centre_id});
     }
   }
   return out;
