@@ -6,7 +6,8 @@ cd "$(dirname "$0")/.."
 # The meshes come from the shared data set: $CELLRAY_DATA_DIR, by default
 # ../shared/data beside the repository.
 d=${CELLRAY_DATA_DIR:-../shared/data}
-for f in openfoam/component8_heat_608k.vtk openfoam/boxturb48_dns.vtk vtk-data/disk_out_ref.vtu; do
+for f in openfoam/component8_heat_608k.vtk openfoam/boxturb48_dns.vtk vtk-data/disk_out_ref.vtu \
+    openfoam/flange_snappy_89k.vtu; do
   [ -f "$d/$f" ] || { echo "make-images.sh: $d/$f missing: set CELLRAY_DATA_DIR to the shared data set" >&2; exit 1; }
 done
 ./scripts/install-deps.sh
@@ -39,6 +40,12 @@ $r "$d"/openfoam/component8_heat_608k.vtk --array T --iso 330,423,520 --iso-opac
    --clip 0,172,0,0,0,1 --clip-caps --color-map inferno --size 480x360 -o $out/component8_clip_caps.png
 $r "$d"/openfoam/component8_heat_608k.vtk --array T --mode dvr --tf inferno --clip 0,172,0,0,0,1 \
    --size 480x360 -o $out/component8_clip_dvr.png
+# The snappyHexMesh flange: hexahedra, wedges and polyhedra (split by cellray).
+$r "$d"/openfoam/flange_snappy_89k.vtu --mode iso --iso 300,450 --iso-opacity 1 --clip 0,0,-0.005,0,0,1 \
+   --clip-caps --color-map inferno --legend --title "snappy flange: T, cut at z = -5 mm" --size 480x360 \
+   -o $out/flange_snappy_iso.png
+$r "$d"/openfoam/flange_snappy_89k.vtu --mode dvr --tf inferno --legend --title "snappy flange: T" \
+   --size 480x360 -o $out/flange_snappy_dvr.png
 # The Embree host example (examples/04_embree_host.cpp): its generated mesh.
 ./build/examples/04_embree_host $out/embree_host.png
 ./build/examples/04_embree_host --iso $out/embree_host_iso.png
