@@ -1094,6 +1094,16 @@ int run(Options const& o) {
     j["cells"] = l.cells();
     j["vertices"] = l.vertices();
     j["cell_type"] = l.cell_type();
+    if (l.grid) {  // the file's cells by VTK type name, and the polyhedra split (wedges, pyramids: hexahedra)
+      nlohmann::ordered_json by_type = nlohmann::ordered_json::object();
+      for (auto const& [type, count] : l.grid->report.cells_read) by_type[vtk_cell_type_name(type)] = count;
+      j["file_cells"] = by_type;
+      if (l.grid->report.polyhedra_split) {
+        j["polyhedra_split"] = l.grid->report.polyhedra_split;
+        j["polyhedron_tets"] = l.grid->report.polyhedron_tets;
+        j["polyhedron_pyramids"] = l.grid->report.polyhedron_pyramids;
+      }
+    }
     j["renderer"] = o.reference ? "reference" : "fast";
     j["isa"] = isa_name(isa);
     j["traversal"] = traversal_name(traversal);
