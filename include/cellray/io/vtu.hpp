@@ -551,8 +551,9 @@ class VtuParser {
     NumArray const data = decode(a, count, std::string(where) + " array " + in_quotes(name));
     if (cell) {
       std::vector<float> poly;
+      size_t const before = grid.cell_arrays.size();
       add_cell_array(grid, name, data, ncomp, kinds, &poly);
-      if (grid.cell_arrays.back().name == name) polyhedra_values_.emplace_back(name, std::move(poly));
+      if (grid.cell_arrays.size() > before) polyhedra_values_.emplace_back(name, std::move(poly));  // not a duplicate name
     } else {
       add_point_array(grid, std::move(name), data, ncomp);
     }
@@ -579,13 +580,10 @@ class VtuParser {
     std::vector<std::pair<std::string, std::vector<float>>> const& cell_values = polyhedra_values_;
     std::vector<float> centre_xyz;
     std::vector<std::vector<float>> centre_values(grid.point_arrays.size());
-    std::vector<CellArray*> cell_arrays;
-    for (auto const& [name, values] : cell_values) {
-      (void)values;
-      cell_arrays.push_back(nullptr);
+    std::vector<CellArray*> cell_arrays;  // the array each entry of cell_values fills
+    for (auto const& cv : cell_values)
       for (auto& a : grid.cell_arrays)
-        if (a.name == name) cell_arrays.back() = &a;
-    }
+        if (a.name == cv.first) cell_arrays.push_back(&a);
     uint64_t k = 0;  // polyhedron index
     int64_t prev_end = 0;
     PolyhedronFaces f;
@@ -646,7 +644,6 @@ class VtuParser {
       for (auto const& h : split.hexes)
         for (uint64_t v : h) grid.hexes.push_back(uint32_t(v));
       for (size_t a = 0; a < cell_arrays.size(); ++a) {
-        if (!cell_arrays[a]) continue;
         float const v = cell_values[a].second[k];
         cell_arrays[a]->tet_values.insert(cell_arrays[a]->tet_values.end(), split.tets.size(), v);
         cell_arrays[a]->hex_values.insert(cell_arrays[a]->hex_values.end(), split.hexes.size(), v);
