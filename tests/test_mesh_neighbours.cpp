@@ -9,7 +9,11 @@
 #include <algorithm>
 #include <array>
 #include <map>
+#include <random>
+#include <string>
 #include <vector>
+
+#include <tbb/task_arena.h>
 
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/neighbours.hpp>
@@ -128,6 +132,48 @@ TEST_CASE("neighbours: empty meshes and bad vertex ids", "[mesh][neighbours]") {
   std::vector<uint32_t> const bad{0, 1, 2, 7};
   TetMesh const m{view(xyz), view(bad)};
   CHECK_THROWS_WITH(build_tet_neighbours(m), Catch::Contains("cell 0") && Catch::Contains("vertex 7"));
+}
+
+TEST_CASE("neighbours: several blocks, shuffled cells, the same on any thread count", "[mesh][neighbours]") {
+  // 83k cells: a 4-thread arena splits the counting sort into 4 blocks of
+  // cells (mesh/neighbours.hpp), whatever the machine's core count.
+  auto const g = generate_tets(6 * 24 * 24 * 24, 5);
+  std::vector<uint32_t> cells = g.cells;
+  // Cell order not spatially coherent, as in the OpenFOAM meshes: a
+  // vertex's cells come from all blocks.
+  std::vector<uint64_t> order(cells.size() / 4);
+  for (uint64_t c = 0; c < order.size(); ++c) order[c] = c;
+  std::shuffle(order.begin(), order.end(), std::mt19937_64(7));
+  std::vector<uint32_t> shuffled(cells.size());
+  for (uint64_t c = 0; c < order.size(); ++c)
+    for (int i = 0; i < 4; ++i) shuffled[4 * c + uint64_t(i)] = cells[4 * order[c] + uint64_t(i)];
+  // Copies of a few cells in other blocks (their faces now belong to 3
+  // cells, in one bucket) and degenerate cells between them.
+  for (uint64_t c : {uint64_t(5), uint64_t(30000), uint64_t(60000)}) {
+    shuffled.insert(shuffled.end(), shuffled.begin() + long(4 * c), shuffled.begin() + long(4 * c + 4));
+    shuffled.insert(shuffled.end(), {shuffled[4 * c], shuffled[4 * c], shuffled[4 * c + 1], shuffled[4 * c + 2]});
+  }
+  std::swap_ranges(shuffled.end() - 8, shuffled.end(), shuffled.begin() + 4 * 41000);
+  TetMesh const m{view(g.xyz), view(shuffled), view(g.field)};
+  REQUIRE(m.cell_count() >= 4 * (uint64_t(1) << 14));
+  TetNeighbours one, four;
+  tbb::task_arena(1).execute([&] { one = build_tet_neighbours(m); });
+  tbb::task_arena(4).execute([&] {
+    four = build_tet_neighbours(m);
+    check_against_brute_force(m);
+  });
+  REQUIRE(one.cell_count() == four.cell_count());
+  CHECK(std::equal(one.data(), one.data() + 4 * one.cell_count(), four.data()));
+  // Bad vertex ids in the second and fourth blocks: the lower cell is named.
+  std::vector<uint32_t> bad = shuffled;
+  uint64_t const nv = m.vertex_count(), n = m.cell_count();
+  bad[4 * (3 * n / 4 + 10) + 2] = uint32_t(nv + 5);
+  bad[4 * (n / 4 + 20) + 1] = uint32_t(nv + 9);
+  TetMesh const broken{view(g.xyz), view(bad), view(g.field)};
+  tbb::task_arena(4).execute([&] {
+    CHECK_THROWS_WITH(build_tet_neighbours(broken), Catch::Contains("cell " + std::to_string(n / 4 + 20) + " ") &&
+                                                        Catch::Contains("vertex " + std::to_string(nv + 9)));
+  });
 }
 
 }  // namespace test_mesh_neighbours
