@@ -109,7 +109,7 @@ MinMaxBvh build_tree(ItemBox* boxes, uint64_t n, Box3 const& cb, BuildOptions co
   BvhAccess::set_info(bvh, sizeof(Index) == 8, opt.builder, opt.max_leaf_size, 0);
   BvhAccess::piece_offsets(bvh) = {0, n};
   if (n == 0) return bvh;
-  std::vector<Index> items(n);
+  LargeVector<Index> items(n);  // unset: every entry is written below
   std::unique_ptr<Subtree> root;
   if (opt.builder == BvhBuilder::morton) {
     std::unique_ptr<uint32_t[]> codes(new uint32_t[n]);
@@ -214,11 +214,11 @@ inline MinMaxBvh build_pieces(std::vector<MeshPiece> const& pieces, BuildOptions
   std::vector<uint64_t> offsets{0};
   for (auto const& p : pieces) offsets.push_back(offsets.back() + p.cell_count());
   uint64_t const n = offsets.back();
-  std::unique_ptr<ItemBox[]> boxes(new ItemBox[n]);  // not zeroed: every entry is written
+  LargeVector<ItemBox> boxes(n);  // unset: every entry is written
   BoxScan scan;
   for (size_t p = 0; p < pieces.size(); ++p)
     pieces[p].visit([&](auto const& mesh) {
-      BoxScan s = cell_boxes(mesh, boxes.get() + offsets[p], isa, uint32_t(p));
+      BoxScan s = cell_boxes(mesh, boxes.data() + offsets[p], isa, uint32_t(p));
       if (s.first_bad != std::numeric_limits<uint64_t>::max()) s.first_bad += offsets[p];
       scan.merge(s);
     });
@@ -228,8 +228,8 @@ inline MinMaxBvh build_pieces(std::vector<MeshPiece> const& pieces, BuildOptions
     throw InvalidMesh("piece " + std::to_string(p) + " cell " + std::to_string(bad - offsets[p]) +
                       " has a non-finite vertex position (validate() names the vertex)");
   }
-  MinMaxBvh bvh = build_any(boxes.get(), n, scan.centroids, opt);
-  boxes.reset();
+  MinMaxBvh bvh = build_any(boxes.data(), n, scan.centroids, opt);
+  boxes = {};  // freed before the caller allocates more
   BvhAccess::piece_offsets(bvh) = std::move(offsets);
   BvhAccess::set_seconds(bvh, seconds_since(t0));
   return bvh;
@@ -248,13 +248,13 @@ inline MinMaxBvh build_minmax_bvh(Span<ItemBox> boxes, BuildOptions const& opt =
   if (scan.first_bad != std::numeric_limits<uint64_t>::max())
     throw InvalidArgument("item " + std::to_string(scan.first_bad) + " has a non-finite bound or lo > hi");
   // The builders reorder their boxes: work on a copy.
-  std::unique_ptr<ItemBox[]> copy(new ItemBox[boxes.size]);
+  detail::LargeVector<ItemBox> copy(boxes.size);
   tbb::parallel_for(tbb::blocked_range<uint64_t>(0, boxes.size, detail::scan_block),
                     [&](tbb::blocked_range<uint64_t> const& r) {
-                      std::copy(boxes.data + r.begin(), boxes.data + r.end(), copy.get() + r.begin());
+                      std::copy(boxes.data + r.begin(), boxes.data + r.end(), copy.data() + r.begin());
                     });
-  MinMaxBvh bvh = detail::build_any(copy.get(), boxes.size, scan.centroids, opt);
-  copy.reset();
+  MinMaxBvh bvh = detail::build_any(copy.data(), boxes.size, scan.centroids, opt);
+  copy = {};
   detail::BvhAccess::set_seconds(bvh, detail::seconds_since(t0));
   return bvh;
 }

@@ -72,8 +72,8 @@ namespace detail {
 struct BvhAccess {
   static NodeVector& nodes(MinMaxBvh& b) { return b.nodes_; }
   static ValueRanges& ranges(MinMaxBvh& b) { return b.ranges_; }
-  static std::vector<uint32_t>& items32(MinMaxBvh& b) { return b.items32_; }
-  static std::vector<uint64_t>& items64(MinMaxBvh& b) { return b.items64_; }
+  static LargeVector<uint32_t>& items32(MinMaxBvh& b) { return b.items32_; }
+  static LargeVector<uint64_t>& items64(MinMaxBvh& b) { return b.items64_; }
   static std::vector<uint64_t>& piece_offsets(MinMaxBvh& b) { return b.piece_offsets_; }
   static void set_info(MinMaxBvh& b, bool wide, BvhBuilder builder, uint32_t leaf, uint32_t depth) {
     b.wide_ = wide;

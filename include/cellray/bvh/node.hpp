@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "../error.hpp"
+#include "../memory.hpp"
 #include "../mesh/span.hpp"
 
 namespace cellray {
@@ -60,25 +61,10 @@ struct alignas(32) Node {
 static_assert(sizeof(Node) == 32, "Node is documented as 32 bytes");
 
 namespace detail {
-/// A std::allocator that default-initialises: a resize of a vector of a
-/// trivial type leaves the new elements unset instead of zeroing them. For
-/// arrays the builders write completely (a 1M-cell tree has 10 MB of nodes:
-/// the zeroing was 2-3% of a Morton build).
-template <class T> struct UninitAllocator : std::allocator<T> {
-  template <class U> struct rebind {
-    using other = UninitAllocator<U>;
-  };
-  UninitAllocator() = default;
-  template <class U> UninitAllocator(UninitAllocator<U> const&) noexcept {}
-  template <class U> void construct(U* p) noexcept(std::is_nothrow_default_constructible<U>::value) {
-    ::new (static_cast<void*>(p)) U;
-  }
-  template <class U, class... Args> void construct(U* p, Args&&... args) {
-    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-  }
-};
-/// The node array of a tree (elements unset after a resize).
-using NodeVector = std::vector<Node, UninitAllocator<Node>>;
+/// The node array of a tree: a resize leaves the nodes unset (the builders
+/// write every one; zeroing was 2-3% of a Morton build of 1M cells) and a
+/// large array is advised as huge pages (memory.hpp).
+using NodeVector = LargeVector<Node>;
 }  // namespace detail
 
 /// Value range of one node: the smallest and largest vertex value of every
@@ -96,14 +82,14 @@ static_assert(sizeof(NodeRange) == 8, "NodeRange is documented as 8 bytes");
 class ValueRanges {
  public:
   ValueRanges() = default;
-  explicit ValueRanges(uint64_t nodes) : r_(nodes) {}
+  explicit ValueRanges(uint64_t nodes) { detail::resize_zeroed(r_, nodes); }
 
   uint64_t size() const noexcept { return r_.size(); }
   NodeRange const* data() const noexcept { return r_.data(); }
   NodeRange* data() noexcept { return r_.data(); }
   NodeRange const& operator[](uint64_t node) const noexcept { return r_[node]; }
   NodeRange& operator[](uint64_t node) noexcept { return r_[node]; }
-  void resize(uint64_t nodes) { r_.resize(nodes); }
+  void resize(uint64_t nodes) { detail::resize_zeroed(r_, nodes); }
   uint64_t bytes() const noexcept { return r_.size() * sizeof(NodeRange); }
   friend bool operator==(ValueRanges const& a, ValueRanges const& b) {
     return a.r_.size() == b.r_.size() &&
@@ -114,7 +100,7 @@ class ValueRanges {
   friend bool operator!=(ValueRanges const& a, ValueRanges const& b) { return !(a == b); }
 
  private:
-  std::vector<NodeRange> r_;
+  detail::LargeVector<NodeRange> r_;
 };
 
 /// The builders (see build.hpp). All are parallel and deterministic.
@@ -226,8 +212,8 @@ class MinMaxBvh {
 
   detail::NodeVector nodes_;
   ValueRanges ranges_;
-  std::vector<uint32_t> items32_;
-  std::vector<uint64_t> items64_;
+  detail::LargeVector<uint32_t> items32_;
+  detail::LargeVector<uint64_t> items64_;
   std::vector<uint64_t> piece_offsets_;
   bool wide_ = false;
   BvhBuilder builder_ = BvhBuilder::binned_sah;

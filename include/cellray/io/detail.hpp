@@ -34,6 +34,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include "../error.hpp"
+#include "../memory.hpp"
 #include "../mesh/vtk_cells.hpp"
 #include "grid.hpp"
 
@@ -337,43 +338,6 @@ template <class F> void with_ints(NumArray const& a, F&& f) {
 /// is ~100 us, small enough that both of two cores first-touch the output
 /// (a fresh page's first write dominates loading; PROFILE.md).
 constexpr uint64_t convert_grain = uint64_t(1) << 16;
-
-/// v.resize(n) for a trivial T, the new pages first written from all threads:
-/// on the VMs of PROFILE.md a fresh page's first write costs ~12 us and
-/// resize() alone takes that serially (a 10 MB index array: ~30 ms). The
-/// capacity is zeroed before resize() constructs into it (trivial types, so
-/// the bytes are the objects); the second pass over present pages is cheap.
-template <class T> void resize_touched(std::vector<T>& v, uint64_t n) {
-  static_assert(std::is_trivial_v<T>);
-  if (n <= v.size()) {
-    v.resize(n);
-    return;
-  }
-  if ((n - v.size()) * sizeof(T) < (uint64_t(1) << 20)) {
-    v.resize(n);  // small: not worth waking the thread pool
-    return;
-  }
-  v.reserve(n);
-  constexpr uint64_t page_bytes = uint64_t(1) << 16;
-  auto* const bytes = reinterpret_cast<unsigned char*>(v.data()) + v.size() * sizeof(T);
-  uint64_t const total = (n - v.size()) * sizeof(T);
-#if defined(CELLRAY_IO_MMAP) && defined(MADV_HUGEPAGE)
-  {
-    constexpr uintptr_t huge = uintptr_t(1) << 21;
-    uintptr_t const b = (reinterpret_cast<uintptr_t>(bytes) + huge - 1) & ~(huge - 1);
-    uintptr_t const e = (reinterpret_cast<uintptr_t>(bytes) + total) & ~(huge - 1);
-    // Transparent huge pages where the system grants them on request
-    // ("madvise" mode): one fault per 2 MB; measured 1.3x on a whole load.
-    if (e > b) ::madvise(reinterpret_cast<void*>(b), e - b, MADV_HUGEPAGE);
-  }
-#endif
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (total + page_bytes - 1) / page_bytes, 4),
-                    [&](tbb::blocked_range<uint64_t> const& r) {
-                      uint64_t const b = r.begin() * page_bytes, e = std::min(total, r.end() * page_bytes);
-                      std::memset(bytes + b, 0, e - b);
-                    });
-  v.resize(n);
-}
 
 /// double to float without undefined behaviour: out-of-range values become +-inf.
 inline float to_float(double d) {
@@ -733,8 +697,8 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
   }
   // Counts were checked against the connectivity present (each kept cell has
   // >= 4 ids there), so these allocations are bounded by the file size.
-  resize_touched(grid.tets, 4 * ntets);
-  resize_touched(grid.hexes, 8 * nhexes);
+  cellray::detail::resize_zeroed(grid.tets, 4 * ntets);
+  cellray::detail::resize_zeroed(grid.hexes, 8 * nhexes);
   tasks.first_tet.push_back(ntets);
   tasks.first_hex.push_back(nhexes);
   fill_cells(ncells, types, conn, span, npoints, grid, where, kinds, tasks);
@@ -777,7 +741,7 @@ inline std::string describe_array(char const* where, std::string const& name, in
 /// The values of a point array of `npoints` tuples, one per vertex (tuple_value).
 inline std::vector<float> point_values(NumArray const& a, int ncomp, uint64_t npoints) {
   std::vector<float> v;
-  resize_touched(v, npoints);
+  cellray::detail::resize_zeroed(v, npoints);
   convert_tuples(a, ncomp, v);
   return v;
 }
@@ -817,7 +781,7 @@ inline void add_cell_array(UnstructuredGrid& grid, std::string name, NumArray co
   if (grid.tet_count() == kinds.size() || grid.hex_count() == kinds.size()) {
     // One kind of cell, none skipped: a straight conversion.
     std::vector<float>& out = grid.tet_count() == kinds.size() ? c.tet_values : c.hex_values;
-    resize_touched(out, kinds.size());
+    cellray::detail::resize_zeroed(out, kinds.size());
     convert_tuples(a, ncomp, out);
   } else {
     c.tet_values.reserve(grid.tet_count());
@@ -836,7 +800,7 @@ inline void add_cell_array(UnstructuredGrid& grid, std::string name, NumArray co
 
 /// Positions from a 3-component array of `npoints` tuples.
 inline void set_positions(UnstructuredGrid& grid, NumArray const& a, uint64_t npoints) {
-  resize_touched(grid.xyz, 3 * npoints);
+  cellray::detail::resize_zeroed(grid.xyz, 3 * npoints);
   float* const out = grid.xyz.data();
   with_doubles(a, [&](auto const get) {
     auto convert = [&](tbb::blocked_range<uint64_t> const& r) {

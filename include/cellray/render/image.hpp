@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "../error.hpp"
+#include "../memory.hpp"
 
 namespace cellray {
 
@@ -20,8 +21,11 @@ struct Image {
   std::vector<float> rgba;  ///< 4 floats per pixel, row-major, top row first, premultiplied
 
   Image() = default;
-  Image(int w, int h) : width(w), height(h), rgba(size_t(w) * size_t(h) * 4, 0.f) {
+  /// All pixels 0 (transparent black), zeroed from all threads (memory.hpp:
+  /// a 1024x768 image is 12 MB of fresh pages, ~45 ms on one thread).
+  Image(int w, int h) : width(w), height(h) {
     if (w < 0 || h < 0) throw InvalidArgument("negative image size");
+    detail::resize_zeroed(rgba, size_t(w) * size_t(h) * 4);
   }
   float* pixel(int x, int y) { return rgba.data() + (size_t(y) * size_t(width) + size_t(x)) * 4; }
   float const* pixel(int x, int y) const { return rgba.data() + (size_t(y) * size_t(width) + size_t(x)) * 4; }
