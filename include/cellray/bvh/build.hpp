@@ -110,12 +110,13 @@ MinMaxBvh build_tree(ItemBox* boxes, uint64_t n, Box3 const& cb, BuildOptions co
   BvhAccess::piece_offsets(bvh) = {0, n};
   if (n == 0) return bvh;
   LargeVector<Index> items(n);  // unset: every entry is written below
+  SubtreePool pool;  // before root: holds its private node buffers until assembled
   std::unique_ptr<Subtree> root;
   if (opt.builder == BvhBuilder::morton) {
     std::unique_ptr<uint32_t[]> codes(new uint32_t[n]);
     morton_order(boxes, n, cb, items.data(), codes.get());
     MortonSplitter<Index> s{codes.get(), boxes, items.data(), opt.max_leaf_size};
-    root = build_upper(s, 0, n, 0, Box3{});
+    root = build_upper(s, 0, n, 0, Box3{}, pool);
   } else {
     tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, scan_block), [&](tbb::blocked_range<uint64_t> const& r) {
       for (uint64_t i = r.begin(); i < r.end(); ++i) items[i] = Index(i);
@@ -123,10 +124,10 @@ MinMaxBvh build_tree(ItemBox* boxes, uint64_t n, Box3 const& cb, BuildOptions co
     Slots<Index> const slots{boxes, items.data()};
     if (opt.builder == BvhBuilder::spatial_median) {
       MedianSplitter<Index> s{slots, opt.max_leaf_size, opt.sah};
-      root = build_upper(s, 0, n, 0, cb);
+      root = build_upper(s, 0, n, 0, cb, pool);
     } else {
       SahSplitter<Index> s{slots, opt.max_leaf_size, opt.sah, opt.sah_bins};
-      root = build_upper(s, 0, n, 0, cb);
+      root = build_upper(s, 0, n, 0, cb, pool);
     }
   }
   assemble(*root, BvhAccess::nodes(bvh), BvhAccess::ranges(bvh));
