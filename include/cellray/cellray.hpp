@@ -2,7 +2,7 @@
 // The public surface in one include: mesh views and validation, the min-max
 // BVH (build, refit, statistics), queries (first hits, samples) and the
 // renderer. Needs xsimd, oneTBB and GLM only. The file readers and image
-// writers are separate (cellray/io/*.hpp: pugixml, zlib, stb).
+// writers are separate (cellray/io/*.hpp: pugixml, zlib).
 
 #include "bvh/build.hpp"
 #include "bvh/refit.hpp"

@@ -4,7 +4,7 @@
 // InvalidArgument and best_isa() must never pick it. Part 2 (cellray::io):
 // reads a one-tet legacy VTK file and the same tet as VTU from memory
 // (pugixml; zlib is linked for compressed VTU), renders it and writes a PNG
-// (stb's writer).
+// (zlib).
 // usage: consumer [out.ppm] [out.png] [scratch.vtk]
 #include <cstdio>
 #include <fstream>

@@ -19,59 +19,17 @@
 #include <utility>
 #include <vector>
 
-#if defined(__has_include)
-#if __has_include(<sys/mman.h>)
-#include <sys/mman.h>
-#endif
-#endif
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include "../error.hpp"
+#include "../memory.hpp"
 #include "cell_mesh.hpp"
 
 namespace cellray {
 
 namespace detail {
-
-/// Allocator of the builder's arrays and of the result: `resize` leaves the
-/// elements unset (every one is written next, from all threads, so the
-/// first-write page faults are shared), and 4 MB or more are 2 MB-aligned
-/// and advised as transparent huge pages (one fault per 2 MB where the
-/// system grants them on request). A fresh 4 KB page costs ~14.5 us on the
-/// VMs users run on (PROFILE.md): the 41 MB of fresh arrays the serial
-/// counting sort used on component8_608k (~10k faults) were about half its
-/// 250 ms; this build takes ~250 faults there.
-template <class T> struct NeighbourAllocator {
-  static_assert(std::is_trivial_v<T>);
-  using value_type = T;
-  static constexpr size_t huge = size_t(1) << 21;
-  NeighbourAllocator() = default;
-  template <class U> NeighbourAllocator(NeighbourAllocator<U> const&) noexcept {}
-  T* allocate(size_t n) {
-    if (n > size_t(-1) / sizeof(T) - huge) throw std::bad_array_new_length();
-    size_t const bytes = n * sizeof(T);
-    if (bytes < 2 * huge) return static_cast<T*>(::operator new(bytes));
-    size_t const rounded = (bytes + huge - 1) & ~(huge - 1);
-    void* const p = ::operator new(rounded, std::align_val_t(huge));
-#if defined(MADV_HUGEPAGE)
-    ::madvise(p, rounded, MADV_HUGEPAGE);  // a hint: refused, nothing changes
-#endif
-    return static_cast<T*>(p);
-  }
-  void deallocate(T* p, size_t n) noexcept {
-    if (n * sizeof(T) < 2 * huge) ::operator delete(p);
-    else ::operator delete(p, std::align_val_t(huge));
-  }
-  template <class U> void construct(U* p) noexcept { ::new (static_cast<void*>(p)) U; }
-  template <class U, class... Args> void construct(U* p, Args&&... args) {
-    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-  }
-  template <class U> bool operator==(NeighbourAllocator<U> const&) const noexcept { return true; }
-  template <class U> bool operator!=(NeighbourAllocator<U> const&) const noexcept { return false; }
-};
 
 /// A cell's four vertex ids in ascending order (a sorting network: no
 /// branches on the ids).
@@ -125,7 +83,7 @@ template <class Id, class Src> void match_tet_faces(Src const* idx, uint64_t n, 
   blocks = std::min(blocks, std::max<uint64_t>(1, n >> 14));
   blocks = std::min(blocks, std::max<uint64_t>(1, n / std::max<uint64_t>(nv, 1)));
   auto block_begin = [&](uint64_t b) { return b * n / blocks; };
-  std::vector<uint32_t, NeighbourAllocator<uint32_t>> cursor(blocks * nv);
+  LargeVector<uint32_t> cursor(blocks * nv);
   std::atomic<uint64_t> first_bad{n};  // the first cell with a vertex id out of range
   tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& range) {
     for (uint64_t b = range.begin(); b < range.end(); ++b) {
@@ -170,7 +128,7 @@ template <class Id, class Src> void match_tet_faces(Src const* idx, uint64_t n, 
     Id v[3];      // the cell's ids v1, v2, v3 (v0 is the bucket or below it)
     uint32_t cr;  // 2 cell + (bucket is v1)
   };
-  std::vector<Entry, NeighbourAllocator<Entry>> entry(running);
+  LargeVector<Entry> entry(running);
   tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& range) {
     for (uint64_t b = range.begin(); b < range.end(); ++b) {
       uint32_t* const fill = cursor.data() + b * nv;
@@ -275,7 +233,7 @@ class TetNeighbours {
     }
     return h;
   }
-  std::vector<int32_t, detail::NeighbourAllocator<int32_t>> across_;  // unset until built
+  detail::LargeVector<int32_t> across_;  // unset until built
   uint64_t vertex_count_ = 0, fingerprint_ = 0;
 };
 

@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# Where the first image of a new mesh spends its time (issue #23): each
+# workload runs RUNS times (default 5) as a fresh cellray-render process,
+# 1024x768 on all cores; the run with the median total is kept. Writes
+# docs/first_image.csv and the chart docs/first_image.png (matplotlib).
+# Needs the shared data set ($CELLRAY_DATA_DIR, default ../shared/data) and
+# a Release build in build/ (built here if missing). About a minute.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+d=${CELLRAY_DATA_DIR:-../shared/data}
+runs=${RUNS:-5}
+for f in openfoam/component8_heat_608k.vtk openfoam/boxturb48_dns.vtk openfoam/flange_snappy_89k.vtu; do
+  [ -f "$d/$f" ] || { echo "first-image.sh: $d/$f missing: set CELLRAY_DATA_DIR to the shared data set" >&2; exit 1; }
+done
+# CELLRAY_RENDER=path: time that binary instead (e.g. another build).
+r=${CELLRAY_RENDER:-}
+if [ -z "$r" ]; then
+  ./scripts/install-deps.sh
+  cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
+  cmake --build build -j"$(nproc)" --target cellray-render
+  r=./build/examples/cellray-render
+fi
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+# name | arguments
+workloads=(
+  "component8 iso|$d/openfoam/component8_heat_608k.vtk --array T --iso 423 --iso-opacity 1"
+  "component8 DVR|$d/openfoam/component8_heat_608k.vtk --array T --mode dvr"
+  "boxturb48 iso|$d/openfoam/boxturb48_dns.vtk --array enstrophy --iso 0.1 --iso-opacity 1"
+  "boxturb48 DVR|$d/openfoam/boxturb48_dns.vtk --array enstrophy --mode dvr"
+  "flange .vtu iso|$d/openfoam/flange_snappy_89k.vtu --array T"
+)
+for w in "${workloads[@]}"; do
+  name=${w%%|*}
+  args=${w#*|}
+  for ((i = 0; i < runs; ++i)); do
+    # shellcheck disable=SC2086
+    $r $args --size 1024x768 --stats -o "$tmp/out.png" | sed "s/^/$name\t/" >>"$tmp/stats.tsv"
+  done
+done
+/usr/bin/python3 - "$tmp/stats.tsv" "$(uname -n) $(nproc) cores" <<'PY'
+import csv, json, statistics, sys
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+phases = ["load_ms", "prepare_ms", "validate_ms", "build_ms", "neighbours_ms", "gradients_ms", "render_ms_first", "write_ms"]
+runs = {}
+for line in open(sys.argv[1]):
+    name, js = line.rstrip("\n").split("\t", 1)
+    runs.setdefault(name, []).append(json.loads(js))
+rows = []
+for name, rs in runs.items():
+    rs.sort(key=lambda j: j["total_ms"])
+    j = rs[len(rs) // 2]
+    rows.append((name, j))
+with open("docs/first_image.csv", "w", newline="") as f:
+    w = csv.writer(f)
+    w.writerow(["workload", "cells"] + phases + ["other_ms", "total_ms", "total_ms_min", "total_ms_max"])
+    for name, j in rows:
+        other = j["total_ms"] - sum(j[p] for p in phases)
+        ts = [x["total_ms"] for x in runs[name]]
+        w.writerow([name, j["cells"]] + [round(j[p], 1) for p in phases] + [round(other, 1), round(j["total_ms"], 1), round(min(ts), 1), round(max(ts), 1)])
+fig, ax = plt.subplots(figsize=(8, 3.6))
+left = [0.0] * len(rows)
+colors = plt.get_cmap("tab10").colors
+for k, p in enumerate(phases + ["other"]):
+    vals = [(j["total_ms"] - sum(j[q] for q in phases)) if p == "other" else j[p] for _, j in rows]
+    ax.barh([n for n, _ in rows], vals, left=left, color=colors[k % 10], label=p.replace("_ms", "").replace("render_first", "first frame"))
+    left = [a + b for a, b in zip(left, vals)]
+ax.invert_yaxis()
+ax.set_xlabel("ms from process start to the image on disk (median of %d fresh runs)" % len(next(iter(runs.values()))))
+ax.set_title("First image of a new mesh, 1024x768, cellray-render --stats (%s)" % sys.argv[2], fontsize=9)
+ax.legend(fontsize=7, ncol=5, loc="lower right")
+fig.tight_layout()
+fig.savefig("docs/first_image.png", dpi=110)
+for name, j in rows:
+    print("%-16s total %7.1f ms  " % (name, j["total_ms"]) + "  ".join("%s %.0f" % (p.replace("_ms", ""), j[p]) for p in phases))
+PY
