@@ -516,7 +516,7 @@ class SubtreePool {
   }
 
  private:
-  static constexpr uint64_t block_nodes = huge_page_bytes / sizeof(Node);
+  static constexpr uint64_t block_nodes = large_buffer_bytes / sizeof(Node);  // advised as huge pages
   struct Block {
     NodeVector nodes;
     LargeVector<NodeRange> ranges;
