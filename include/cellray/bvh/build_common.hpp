@@ -481,10 +481,13 @@ struct Subtree {
 
 /// Where the private buffers of the subtrees live until `assemble` copies
 /// them out: each is built in its thread's scratch vectors (reused, so warm
-/// after the first) and then copied into 2 MB blocks of huge pages, filled
+/// after the first) and then copied into 4 MB blocks of huge pages, filled
 /// one after another. In a fresh process this touches as few new pages as
-/// the nodes need; a vector per subtree took ~2,500 first-write faults on a
-/// 600k-cell tree (PROFILE.md: ~15 us each).
+/// the nodes need; a vector per subtree took ~500-2,500 first-write faults
+/// on a 600k-cell tree (PROFILE.md: ~15 us each). A thread's scratch is safe
+/// to reuse because a local build makes no TBB call (ranges of at most
+/// local_build_items are split sequentially): no other task can run on the
+/// thread in the middle of one.
 class SubtreePool {
  public:
   struct Scratch {
