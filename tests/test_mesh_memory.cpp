@@ -1,5 +1,6 @@
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cstdint>
 #include <numeric>
 #include <vector>
@@ -14,8 +15,13 @@ namespace test_mesh_memory {
 using namespace cellray;
 
 TEST_CASE("resize_zeroed keeps the old elements and zeroes the new ones, small and large", "[mesh]") {
+  // A LargeVector's resize leaves new elements unset, so only resize_zeroed
+  // can zero them: the capacity is dirtied first (fresh pages are zero anyway).
   for (uint64_t n : {uint64_t(10), uint64_t(3) << 20}) {  // below and above the parallel threshold
-    std::vector<uint32_t> v(1000);
+    detail::LargeVector<uint32_t> v;
+    v.reserve(n);
+    v.assign(std::max<uint64_t>(n, 1000), 0xdeadbeefu);
+    v.resize(1000);
     std::iota(v.begin(), v.end(), 7u);
     detail::resize_zeroed(v, n);
     REQUIRE(v.size() == n);
@@ -24,6 +30,9 @@ TEST_CASE("resize_zeroed keeps the old elements and zeroes the new ones, small a
     for (uint64_t i = 1000; i < n; ++i) nonzero += v[i] != 0;
     CHECK(nonzero == 0);
   }
+  std::vector<float> grow(100, 1.f);  // the standard allocator too
+  detail::resize_zeroed(grow, uint64_t(1) << 20);
+  CHECK(std::count(grow.begin(), grow.end(), 0.f) == (1 << 20) - 100);
   std::vector<float> shrink(100, 1.f);
   detail::resize_zeroed(shrink, 5);
   CHECK(shrink == std::vector<float>(5, 1.f));
@@ -51,10 +60,15 @@ TEST_CASE("a new image and new value ranges are zero however large", "[mesh]") {
   CHECK(img.rgba.size() == uint64_t(1024) * 1100 * 4);
   CHECK(nonzero == 0);
   CHECK_THROWS_AS(Image(-1, 4), InvalidArgument);
-  ValueRanges const r(uint64_t(1) << 20);
+  // Value ranges grown again after a shrink reuse their dirty capacity.
+  ValueRanges r(uint64_t(1) << 20);
+  for (uint64_t i = 0; i < r.size(); ++i) r[i] = {1.f, 2.f};
+  r.resize(10);
+  r.resize(uint64_t(1) << 20);
   nonzero = 0;
-  for (uint64_t i = 0; i < r.size(); ++i) nonzero += r[i].vmin != 0.f || r[i].vmax != 0.f;
+  for (uint64_t i = 10; i < r.size(); ++i) nonzero += r[i].vmin != 0.f || r[i].vmax != 0.f;
   CHECK(nonzero == 0);
+  CHECK(r[0].vmin == 1.f);
 }
 
 }  // namespace test_mesh_memory

@@ -113,24 +113,6 @@ inline void write_ppm(std::string const& path, Image const& img) { write_file_re
 #if CELLRAY_HAS_PNG
 namespace io {
 
-/// Rows y0..y1 of `img` as 8-bit straight-alpha RGBA, byte for byte what
-/// Image::to_straight_rgba8 gives for them (the same expressions: a NaN
-/// channel becomes 0), into out[(y1 - y0) * width * 4].
-inline void straight_rgba8_rows(Image const& img, int y0, int y1, uint8_t* out) {
-  float const* s = img.pixel(0, y0);
-  size_t const n = size_t(y1 - y0) * size_t(img.width) * 4;
-  for (size_t i = 0; i < n; i += 4) {
-    float const a = s[i + 3] > 0.f ? std::min(s[i + 3], 1.f) : 0.f;
-    bool const divide = a > 0.f && a < 1.f;
-    for (size_t k = 0; k < 3; ++k) {
-      float c = divide ? s[i + k] / a : s[i + k];
-      c = c > 0.f ? std::min(c, 1.f) : 0.f;
-      out[i + k] = uint8_t(c * 255.f + 0.5f);
-    }
-    out[i + 3] = uint8_t(a * 255.f + 0.5f);
-  }
-}
-
 /// PNG filter 4 (Paeth, PNG spec §9.4) of one RGBA row: out[i] = cur[i] -
 /// predictor(left, up, up-left), `prev` all zeros above the first row.
 /// Branch-free so that the compiler vectorises it (the decoder's side is
@@ -167,7 +149,7 @@ struct PngScratch {
 constexpr size_t png_block_bytes = size_t(1) << 17;
 
 /// `img` as a PNG file in memory: 8-bit RGBA, straight alpha
-/// (straight_rgba8_rows), every row Paeth-filtered, deflated by zlib with
+/// (Image::straight_rgba8_rows), every row Paeth-filtered, deflated by zlib with
 /// Z_RLE (runs of one distance: flat colour after the filter; measured on
 /// rendered 1024x768 images at ~0.6-0.7x the bytes of stb_image_write's
 /// level 8 and ~5x faster on one core). Row blocks are converted, filtered
@@ -225,12 +207,12 @@ inline std::string encode_png(Image const& img, size_t idat_max = size_t(1) << 3
       }
     };
     int const y0 = b * rows_per_block, y1 = std::min(img.height, y0 + rows_per_block);
-    if (y0 > 0) straight_rgba8_rows(img, y0 - 1, y0, t.row[(y0 - 1) & 1].data());
+    if (y0 > 0) img.straight_rgba8_rows(y0 - 1, y0, t.row[(y0 - 1) & 1].data());
     else std::fill(t.row[1].begin(), t.row[1].end(), uint8_t(0));  // "row -1": zeros
     uLong adler = adler32_z(0, nullptr, 0);
     for (int y = y0; y < y1; ++y) {
       uint8_t* const cur = t.row[y & 1].data();
-      straight_rgba8_rows(img, y, y + 1, cur);
+      img.straight_rgba8_rows(y, y + 1, cur);
       paeth_filter_row(cur, t.row[(y + 1) & 1].data(), row_bytes, t.filtered.data() + 1);
       adler = adler32_z(adler, t.filtered.data(), line);
       z.next_in = t.filtered.data();

@@ -13,9 +13,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
-#include <new>
 #include <string>
-#include <type_traits>
 #include <utility>
 #include <vector>
 

@@ -45,15 +45,24 @@ struct Image {
   /// < 1), as PNG stores it.
   std::vector<uint8_t> to_straight_rgba8() const {
     std::vector<uint8_t> out(rgba.size());
-    for (size_t i = 0; i < rgba.size(); i += 4) {
-      float const a = rgba[i + 3] > 0.f ? std::min(rgba[i + 3], 1.f) : 0.f;
-      for (size_t k = 0; k < 4; ++k) {
-        float c = k == 3 ? a : (a > 0.f && a < 1.f ? rgba[i + k] / a : rgba[i + k]);
+    if (height > 0) straight_rgba8_rows(0, height, out.data());
+    return out;
+  }
+  /// Rows [y0, y1) of to_straight_rgba8() into out[(y1 - y0) * width * 4]
+  /// (the PNG writer converts row blocks in parallel). A NaN channel becomes 0.
+  void straight_rgba8_rows(int y0, int y1, uint8_t* out) const {
+    float const* s = pixel(0, y0);
+    size_t const n = size_t(y1 - y0) * size_t(width) * 4;
+    for (size_t i = 0; i < n; i += 4) {
+      float const a = s[i + 3] > 0.f ? std::min(s[i + 3], 1.f) : 0.f;
+      bool const divide = a > 0.f && a < 1.f;
+      for (size_t k = 0; k < 3; ++k) {
+        float c = divide ? s[i + k] / a : s[i + k];
         c = c > 0.f ? std::min(c, 1.f) : 0.f;
         out[i + k] = uint8_t(c * 255.f + 0.5f);
       }
+      out[i + 3] = uint8_t(a * 255.f + 0.5f);
     }
-    return out;
   }
 };
 
