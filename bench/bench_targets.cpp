@@ -13,7 +13,7 @@
 // largest step whose image is within 1/255 RMSE of the reference renderer
 // (checked on a 128x128 frame), for point samples (the step is the sample
 // spacing) and cell segments (the step is the longest integration piece;
-// tet meshes march through their face neighbours, and are timed through the
+// they march through the mesh's face neighbours, and are timed through the
 // tree alone too).
 // The shadow + AO line times the secondary rays alone, as differences of
 // frames with and without them in interleaved rounds (secondary_rounds).
@@ -69,13 +69,16 @@ struct Subject {
   bool hex = false;
   MinMaxBvh bvh;
   TetNeighbours neighbours;  ///< tets: DVR segments march through them
+  HexNeighbours hex_neighbours;  ///< hexes: the same
   double neighbours_ms = 0;
   float iso = 0.f;
   float vmin = 0.f, vmax = 0.f;
 
   Scene scene() const { return hex ? Scene(hexes, bvh) : Scene(tets, bvh); }
-  /// With the face neighbours (tets): DVR segments and AO rays march.
-  Scene scene_with_neighbours() const { return hex ? Scene(hexes, bvh) : Scene(tets, bvh, nullptr, &neighbours); }
+  /// With the face neighbours: DVR segments (and a tet mesh's AO rays) march.
+  Scene scene_with_neighbours() const {
+    return hex ? Scene(hexes, bvh, nullptr, &hex_neighbours) : Scene(tets, bvh, nullptr, &neighbours);
+  }
   uint64_t cells() const { return hex ? hexes.cell_count() : tets.cell_count(); }
 };
 
@@ -103,11 +106,10 @@ std::unique_ptr<Subject> load(std::string const& name) {
     s->iso = 0.45f;
   }
   s->bvh = s->hex ? build_minmax_bvh(s->hexes) : build_minmax_bvh(s->tets);
-  if (!s->hex) {
-    auto const t0 = std::chrono::steady_clock::now();
-    s->neighbours = build_tet_neighbours(s->tets);
-    s->neighbours_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  }
+  auto const t0 = std::chrono::steady_clock::now();
+  if (s->hex) s->hex_neighbours = build_hex_neighbours(s->hexes);
+  else s->neighbours = build_tet_neighbours(s->tets);
+  s->neighbours_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   if (s->hex) value_range(s->hexes, s->vmin, s->vmax);
   else value_range(s->tets, s->vmin, s->vmax);
   return s;
@@ -216,9 +218,9 @@ struct DvrResult {
   double rmse = 0, mrays = 0;
 };
 
-/// The fastest DVR configuration within 1/255 RMSE of the reference. Tet
-/// meshes' segments march through face neighbours; the tree-only segments
-/// are timed too at the same step, for the ratio.
+/// The fastest DVR configuration within 1/255 RMSE of the reference.
+/// Segments march through face neighbours; the tree-only segments are timed
+/// too at the same step, for the ratio.
 DvrResult best_dvr(Subject const& s, Options const& o, DvrParams p, char const* what) {
   Scene const scene = s.scene_with_neighbours(), tree_only = s.scene();
   Camera const check_cam = camera_for(s, o.check_size), cam = camera_for(s, o.size);
@@ -237,7 +239,7 @@ DvrResult best_dvr(Subject const& s, Options const& o, DvrParams p, char const* 
       p.step = diag / div;
       double const rmse = compare_images(render_dvr(scene, check_cam, p), reference).rmse;
       if (rmse <= 1.0) {
-        bool const march = mode == DvrMode::segments && !s.hex;
+        bool const march = mode == DvrMode::segments;
         ok.push_back({march ? "segments, march" : mode == DvrMode::segments ? "segments" : "samples", p.step, rmse,
                       mrays(scene)});
         if (march) ok.push_back({"segments, tree only", p.step, rmse, mrays(tree_only)});
@@ -248,9 +250,8 @@ DvrResult best_dvr(Subject const& s, Options const& o, DvrParams p, char const* 
   for (auto const& c : ok)
     std::printf("DVR candidate %s, %s: %s, step %.3g, RMSE %.3f/255, %.3f Mrays/s\n", s.name.c_str(), what,
                 c.mode.c_str(), c.step, c.rmse, c.mrays);
-  if (!s.hex)
-    std::printf("DVR %s: face neighbours built in %.0f ms, %.1f MB\n", s.name.c_str(), s.neighbours_ms,
-                double(s.neighbours.memory_bytes()) / 1e6);
+  std::printf("DVR %s: face neighbours built in %.0f ms, %.1f MB\n", s.name.c_str(), s.neighbours_ms,
+              double(s.neighbours.memory_bytes() + s.hex_neighbours.memory_bytes()) / 1e6);
   if (ok.empty()) return {"none within 1/255", 0.f, -1, 0};
   return *std::max_element(ok.begin(), ok.end(), [](auto const& a, auto const& b) { return a.mrays < b.mrays; });
 }

@@ -176,4 +176,79 @@ TEST_CASE("neighbours: several blocks, shuffled cells, the same on any thread co
   });
 }
 
+namespace {
+
+constexpr int hex_faces[6][4] = {{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 5, 4}, {3, 2, 6, 7}, {0, 3, 7, 4}, {1, 2, 6, 5}};
+
+/// A hex face's distinct vertex ids, ascending.
+std::vector<uint64_t> hex_face(HexMesh const& m, uint64_t c, int f) {
+  std::vector<uint64_t> v;
+  for (int k : hex_faces[f]) v.push_back(m.vertex(c, k));
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+  return v;
+}
+
+void check_hex_against_brute_force(HexMesh const& m) {
+  std::map<std::vector<uint64_t>, std::vector<uint64_t>> cells_of;
+  for (uint64_t c = 0; c < m.cell_count(); ++c)
+    for (int f = 0; f < 6; ++f)
+      if (auto const v = hex_face(m, c, f); v.size() >= 3) cells_of[v].push_back(c);
+  HexNeighbours const nb = build_hex_neighbours(m);
+  REQUIRE(nb.cell_count() == m.cell_count());
+  CHECK(nb.memory_bytes() == 24 * m.cell_count());
+  int wrong = 0;
+  for (uint64_t c = 0; c < m.cell_count(); ++c)
+    for (int f = 0; f < 6; ++f) {
+      auto const v = hex_face(m, c, f);
+      int32_t want = -1;
+      if (v.size() >= 3)
+        if (auto const& list = cells_of[v]; list.size() == 2) want = int32_t(list[0] == c ? list[1] : list[0]);
+      wrong += nb.across(c, f) != want;
+    }
+  CHECK(wrong == 0);
+}
+
+}  // namespace
+
+TEST_CASE("hex neighbours: hexes, wedges and pyramids as collapsed hexes, duplicated cells", "[mesh][neighbours]") {
+  auto const g = generate_hex_family(6 * 6 * 6, 3);
+  HexMesh const m = g.mesh();
+  check_hex_against_brute_force(m);
+  // Counted without the brute force: a wedge's two collapsed faces (an edge
+  // each) and a pyramid's top (a point) have no neighbour; the lattice
+  // cells' outer faces and the pyramids' sides are the boundary. Every
+  // other face pairs up, symmetrically.
+  HexNeighbours const nb = build_hex_neighbours(m);
+  uint64_t paired = 0;
+  for (uint64_t c = 0; c < m.cell_count(); ++c)
+    for (int f = 0; f < 6; ++f)
+      if (int32_t const o = nb.across(c, f); o >= 0) {
+        ++paired;
+        int back = 0;
+        for (int k = 0; k < 6; ++k) back += nb.across(uint64_t(o), k) == int32_t(c);
+        CHECK(back == 1);
+      }
+  int const n = g.lattice;
+  uint64_t const split = uint64_t((n * n + 1) / 2), whole = uint64_t(n * n) - split;  // columns
+  // Shared faces: the 3 n^2 (n - 1) interior lattice faces, those between
+  // two split cells twice (two triangles), each split cell's diagonal, and
+  // each pyramid's base on its hex.
+  uint64_t const shared = 3 * uint64_t(n * n) * uint64_t(n - 1) + split * uint64_t(n - 1) + split * uint64_t(n) + whole;
+  CHECK(paired == 2 * shared);
+  CHECK(nb.fits(m));
+  CHECK_FALSE(nb.fits(generate_hex_family(5 * 5 * 5, 3).mesh()));
+  // A duplicated hex (its faces belong to three cells, or two on the
+  // surface) and a hex collapsed to a flat quad (no face with area).
+  std::vector<uint32_t> cells = g.cells;
+  cells.insert(cells.end(), g.cells.begin() + 8 * 7, g.cells.begin() + 8 * 8);
+  cells.insert(cells.end(), {cells[0], cells[1], cells[2], cells[3], cells[0], cells[1], cells[2], cells[3]});
+  HexMesh const dup{view(g.xyz), view(cells), view(g.field)};
+  check_hex_against_brute_force(dup);
+  std::vector<uint32_t> bad = g.cells;
+  bad[8 * 3 + 5] = uint32_t(g.xyz.size() / 3 + 2);
+  CHECK_THROWS_WITH(build_hex_neighbours(HexMesh{view(g.xyz), view(bad), view(g.field)}),
+                    Catch::Contains("cell 3 ") && Catch::Contains("corner 5"));
+}
+
 }  // namespace test_mesh_neighbours

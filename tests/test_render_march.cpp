@@ -53,6 +53,26 @@ void check_march(TetMesh const& mesh, DvrParams const& p, int size, std::string 
   }
 }
 
+/// check_march for a hexahedral part (wedges and pyramids as collapsed hexes).
+void check_hex_march(HexMesh const& mesh, DvrParams const& p, int size, std::string const& what, double max_ref_rmse) {
+  MinMaxBvh const bvh = build_minmax_bvh(mesh);
+  HexNeighbours const nb = build_hex_neighbours(mesh);
+  Scene const tree(mesh, bvh), march(mesh, bvh, nullptr, &nb);
+  Camera const cam = camera_for(tree, size, size);
+  RenderOptions const o = test::isa_options();
+  Image const a = render_dvr(march, cam, p, o), b = render_dvr(tree, cam, p, o);
+  ImageDiff const d = compare_images(a, b, 0.5);
+  report(what + ": march vs tree", d);
+  CHECK(d.nonfinite == 0);
+  CHECK(d.rmse < 0.01);
+  CHECK(d.max < 0.5);
+  if (max_ref_rmse > 0) {
+    ImageDiff const r = compare_images(a, render_dvr_reference(tree, cam, p), 2.0);
+    report(what + ": march vs reference", r);
+    CHECK(r.rmse < max_ref_rmse);
+  }
+}
+
 DvrParams segments(TransferFunction tf, float step) {
   DvrParams p;
   p.tf = std::move(tf);
@@ -131,6 +151,45 @@ TEST_CASE("DVR march: neighbours of another mesh are refused, several parts use 
   two_tree.tets.push_back({b, &bvh_b, nullptr, nullptr});
   ImageDiff const d = compare_images(render_dvr(two, cam, p), render_dvr(two_tree, cam, p), 0.5);
   CHECK(d.max == 0.0);
+}
+
+TEST_CASE("DVR march: hexes, wedges and pyramids, shading, early termination, NaN cells", "[render][dvr][isa]") {
+  float const diag = std::sqrt(12.f);
+  auto const hexes = generate_hexes(8 * 8 * 8, 3);  // jittered: bilinear faces
+  DvrParams p = segments(busy_tf(0.1f, 0.9f, diag / 8.f), diag / 250.f);
+  check_hex_march(hexes.mesh(), p, 40, "jittered 512 hexes", 0.3);
+  auto g = generate_hex_family(7 * 7 * 7, 4);
+  check_hex_march(g.mesh(), p, 40, "hexes, wedges, pyramids", 0.3);
+  p.shading.enabled = true;
+  check_hex_march(g.mesh(), p, 32, "hex family, shaded", 0.3);
+  p.shading.enabled = false;
+  p.tf.unit_distance = diag / 200.f;  // dense: most rays terminate inside
+  check_hex_march(g.mesh(), p, 32, "hex family, dense (early termination)", 0.3);
+  for (size_t v = 0; v < g.field.size(); v += 41) g.field[v] = std::numeric_limits<float>::quiet_NaN();
+  p.tf.unit_distance = diag / 8.f;
+  check_hex_march(g.mesh(), p, 32, "hex family, NaN cells", 0);
+  // Neighbours of another hex mesh are refused.
+  auto const other = generate_hexes(6 * 6 * 6, 3);
+  HexNeighbours const wrong = build_hex_neighbours(other.mesh());
+  MinMaxBvh const bvh = build_minmax_bvh(hexes.mesh());
+  Scene const s(hexes.mesh(), bvh, nullptr, &wrong);
+  CHECK_THROWS_WITH(render_dvr(s, camera_for(s, 8, 8), p), Catch::Contains("face neighbours") && Catch::Contains("hexahedral part 0"));
+}
+
+TEST_CASE("DVR march: boxturb48 hexes, a narrow band of enstrophy", "[render][dvr][isa][data]") {
+  auto const path = test::shared_data_file("openfoam/boxturb48_dns.vtk");
+  if (!path) return;
+  auto const g = read_mesh(*path);
+  HexMesh const mesh = g.hex_mesh().with_array("enstrophy");
+  glm::vec3 lo(1e30f), hi(-1e30f);
+  for (uint64_t v = 0; v < mesh.vertex_count(); ++v) lo = glm::min(lo, mesh.position(v)), hi = glm::max(hi, mesh.position(v));
+  float const diag = glm::length(hi - lo);
+  TransferFunction tf;  // issue #23's representative shape: opacity where the data is
+  tf.values = {0.f, 0.1f, 0.16f, 0.28f, 0.34f, 10.f};
+  tf.rgba = {{0.2f, 0.3f, 0.8f, 0.f}, {0.2f, 0.3f, 0.8f, 0.f}, {0.5f, 0.6f, 0.9f, 0.3f}, {0.9f, 0.5f, 0.4f, 0.3f},
+             {0.8f, 0.1f, 0.1f, 0.f}, {0.8f, 0.1f, 0.1f, 0.f}};
+  tf.unit_distance = diag / 35.f;
+  check_hex_march(mesh, segments(tf, diag / 250.f), 64, "boxturb48", 0);
 }
 
 }  // namespace test_render_march

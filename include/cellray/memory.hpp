@@ -100,7 +100,9 @@ template <class T> using LargeVector = std::vector<T, LargeAllocator<T>>;
 template <class T, class A> void resize_zeroed(std::vector<T, A>& v, uint64_t n) {
   static_assert(std::is_trivial_v<T>);
   if (n <= v.size() || (n - v.size()) * sizeof(T) < large_buffer_bytes / 4) {
-    v.resize(n);
+    uint64_t const old = v.size();
+    v.resize(n);  // a LargeVector leaves the new elements unset
+    if (n > old) std::memset(static_cast<void*>(v.data() + old), 0, (n - old) * sizeof(T));
     return;
   }
   v.reserve(n);

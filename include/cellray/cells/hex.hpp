@@ -163,10 +163,12 @@ template <class A> CELLRAY_FORCE_INLINE void canonical_patch(CellCorners<A, 8> c
   q[3] = select_corner<A>(flip, flipi, q1, q[3]);
 }
 
-/// Running hull of patch crossings.
+/// Running hull of patch crossings; `face_out` the face (hex_faces index)
+/// of the crossing that set t_out.
 template <class A> struct HullAcc {
   vfloat<A> t_in, t_out, s_in, s_out;
   Vec3<A> u_in, u_out;
+  vint<A> face_out;
 };
 
 /// Relative tolerance under which a face counts as a parallelogram (and a
@@ -190,7 +192,7 @@ CELLRAY_FORCE_INLINE void face_point(PatchCorner<A> const q[4], vfloat<A> const&
 /// the lanes `ok` into the hull.
 template <class A>
 CELLRAY_FORCE_INLINE void hull_add(PatchCorner<A> const q[4], vmask<A> const& ok, vfloat<A> const& t,
-                                   vfloat<A> const& u, vfloat<A> const& v, HullAcc<A>& acc) {
+                                   vfloat<A> const& u, vfloat<A> const& v, int face, HullAcc<A>& acc) {
   vfloat<A> s;
   Vec3<A> uvw;
   face_point<A>(q, u, v, s, uvw);
@@ -202,6 +204,7 @@ CELLRAY_FORCE_INLINE void hull_add(PatchCorner<A> const q[4], vmask<A> const& ok
   acc.t_out = simd::select(new_out, t, acc.t_out);
   acc.s_out = simd::select(new_out, s, acc.s_out);
   acc.u_out = select<A>(new_out, uvw, acc.u_out);
+  acc.face_out = simd::select(simd::to_int_mask(new_out), vint<A>(face), acc.face_out);
 }
 
 /// The plane of a face whose canonical corners form a parallelogram:
@@ -250,7 +253,8 @@ template <class A> CELLRAY_FORCE_INLINE FacePlane<A> face_plane(PatchCorner<A> c
 /// to two roots. The choice is a function of the canonical corners only, so
 /// the two cells of a shared face take the same path and get the same bits.
 template <class A>
-CELLRAY_FORCE_INLINE vmask<A> patch_hits(RayBatch<A> const& ray, PatchCorner<A> const q[4], HullAcc<A>& acc) {
+CELLRAY_FORCE_INLINE vmask<A> patch_hits(RayBatch<A> const& ray, PatchCorner<A> const q[4], int face,
+                                         HullAcc<A>& acc) {
   constexpr float inf = std::numeric_limits<float>::infinity();
   vfloat<A> const zero(0.f);
   vfloat<A> const lo(-hex_patch_tolerance), hi(1.f + hex_patch_tolerance);
@@ -263,7 +267,7 @@ CELLRAY_FORCE_INLINE vmask<A> patch_hits(RayBatch<A> const& ray, PatchCorner<A> 
     // Parallel rays give t = +-inf or NaN, never a crossing; a zero-area
     // face gives NaN (u, v).
     vmask<A> const ok = F.para && simd::abs(t) < vfloat<A>(inf) && u >= lo && u <= hi && v >= lo && v <= hi;
-    if (simd::any(ok)) hull_add<A>(q, ok, t, u, v, acc);
+    if (simd::any(ok)) hull_add<A>(q, ok, t, u, v, face, acc);
     if (simd::all(F.para)) return F.para;
   }
   vmask<A> const patch = !F.para;
@@ -293,7 +297,7 @@ CELLRAY_FORCE_INLINE vmask<A> patch_hits(RayBatch<A> const& ray, PatchCorner<A> 
     vfloat<A> const t = dot(n, pb) / det;
     vfloat<A> const v = dot(n, d) / det;
     vmask<A> const ok = cand && det > zero && v >= lo && v <= hi;
-    if (simd::any(ok)) hull_add<A>(q, ok, t, u, v, acc);
+    if (simd::any(ok)) hull_add<A>(q, ok, t, u, v, face, acc);
   }
   return F.para;
 }
@@ -385,18 +389,19 @@ template <class A> inline Vec3<A> hex_world_gradient(CellCorners<A, 8> const& c,
 /// coordinates there. Rays parallel to a planar face meet it at most in its edges
 /// and are handled by the other faces. Flat (zero-volume) hexes yield no
 /// hit. NaN positions or a miss yield hit == false; hit lanes never carry
-/// NaN t.
+/// NaN t. `exit_face`, if given, receives per hit lane the face (hex_faces
+/// index) of the crossing at t_out: where a march leaves the cell.
 template <class A>
 inline HexClip<A> clip_hex_window(RayBatch<A> const& ray, CellCorners<A, 8> const& c, vmask<A> const& lanes,
-                                  vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
+                                  vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face = nullptr) {
   constexpr float inf = std::numeric_limits<float>::infinity();
   vfloat<A> const zero(0.f);
-  isa_detail::HullAcc<A> acc{vfloat<A>(inf), vfloat<A>(-inf), zero, zero, {zero, zero, zero}, {zero, zero, zero}};
+  isa_detail::HullAcc<A> acc{vfloat<A>(inf), vfloat<A>(-inf), zero, zero, {zero, zero, zero}, {zero, zero, zero}, vint<A>(0)};
   vmask<A> affine = simd::all_lanes<A>();
   for (int f = 0; f < 6; ++f) {
     isa_detail::PatchCorner<A> q[4];
     isa_detail::canonical_patch(c, f, q);
-    vmask<A> const para = isa_detail::patch_hits(ray, q, acc);  // not inside &&: for scalar that short-circuits
+    vmask<A> const para = isa_detail::patch_hits(ray, q, f, acc);  // not inside &&: for scalar that short-circuits
     affine = affine && para;
   }
   HexClip<A> r;
@@ -404,6 +409,7 @@ inline HexClip<A> clip_hex_window(RayBatch<A> const& ray, CellCorners<A, 8> cons
   r.u_in = acc.u_in, r.u_out = acc.u_out;
   r.hit = lanes && acc.t_in < acc.t_out && acc.t_out >= t_lo && acc.t_in <= t_hi;
   r.affine = affine;
+  if (exit_face) *exit_face = acc.face_out;
   return r;
 }
 

@@ -128,4 +128,46 @@ inline GeneratedMesh<8> generate_hexes(uint64_t target_cells, uint64_t seed = 1,
   return detail::generate_lattice<8>(n, seed, jitter);
 }
 
+/// A conforming mesh of the hexahedron family, every cell as 8 corner ids
+/// (wedges and pyramids as collapsed hexahedra, as the readers give them,
+/// mesh/vtk_cells.hpp): the jittered lattice of generate_hexes with every
+/// other column of cells ((i + j) even) split along its 0-2-6-4 diagonal
+/// plane into two wedges, (0 1 2 2 4 5 6 6) and (0 2 3 3 4 6 7 7), and a
+/// pyramid on the top face of each unsplit top cell, its apex half a
+/// lattice spacing above the face's centre. Wedge ends meet wedge ends,
+/// quads meet quads. About `target_cells` lattice cells (more cells after
+/// the splits).
+inline GeneratedMesh<8> generate_hex_family(uint64_t target_cells, uint64_t seed = 1, float jitter = 0.3f) {
+  GeneratedMesh<8> g = generate_hexes(target_cells, seed, jitter);
+  int const n = g.lattice;
+  float const h = 2.f / float(n);
+  std::vector<uint32_t> cells;
+  cells.reserve(g.cells.size() * 2);
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        uint32_t const* c = g.cells.data() + 8 * ((size_t(k) * size_t(n) + size_t(j)) * size_t(n) + size_t(i));
+        if ((i + j) % 2 == 0) {
+          uint32_t const a[8] = {c[0], c[1], c[2], c[2], c[4], c[5], c[6], c[6]};
+          uint32_t const b[8] = {c[0], c[2], c[3], c[3], c[4], c[6], c[7], c[7]};
+          cells.insert(cells.end(), a, a + 8);
+          cells.insert(cells.end(), b, b + 8);
+          continue;
+        }
+        cells.insert(cells.end(), c, c + 8);
+        if (k + 1 < n) continue;
+        glm::vec3 apex(0.f);
+        for (int q = 4; q < 8; ++q) apex += 0.25f * glm::vec3(g.xyz[3 * c[q]], g.xyz[3 * c[q] + 1], g.xyz[3 * c[q] + 2]);
+        apex.z += 0.5f * h;
+        auto const v = uint32_t(g.xyz.size() / 3);
+        g.xyz.insert(g.xyz.end(), {apex.x, apex.y, apex.z});
+        g.field.push_back(analytic_field(apex, 0.f));
+        g.field_t1.push_back(analytic_field(apex, 1.f));
+        uint32_t const pyr[8] = {c[4], c[5], c[6], c[7], v, v, v, v};
+        cells.insert(cells.end(), pyr, pyr + 8);
+      }
+  g.cells = std::move(cells);
+  return g;
+}
+
 }  // namespace cellray

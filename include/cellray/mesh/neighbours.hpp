@@ -13,6 +13,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -258,6 +259,186 @@ inline TetNeighbours build_tet_neighbours(TetMesh const& mesh) {
   if (mesh.has_32bit_indices()) detail::match_tet_faces<uint32_t>(mesh.indices32(), n, nv, out.across_.data());
   else if (narrow) detail::match_tet_faces<uint32_t>(mesh.indices64(), n, nv, out.across_.data());
   else detail::match_tet_faces<uint64_t>(mesh.indices64(), n, nv, out.across_.data());
+  return out;
+}
+
+/// 24 bytes per hexahedron (or wedge or pyramid read as a collapsed one,
+/// mesh/vtk_cells.hpp): `across(cell, f)` is the cell sharing face f (VTK's
+/// hexahedron faces, in the order of cells/hex.hpp's hex_faces: bottom, top,
+/// then the four sides), or -1 on the mesh boundary, at a face shared by
+/// more than two cells, and for a face with fewer than three distinct
+/// vertices (a collapsed face has no area: no ray leaves through it). Two
+/// faces are shared when they have the same distinct vertices: a quad with
+/// a quad, a triangle (a wedge's end, a pyramid's side) with a triangle.
+class HexNeighbours {
+ public:
+  static constexpr int faces = 6;
+  HexNeighbours() = default;
+  uint64_t cell_count() const noexcept { return across_.size() / faces; }
+  int32_t across(uint64_t cell, int face) const noexcept { return across_[faces * cell + uint64_t(face)]; }
+  int32_t const* data() const noexcept { return across_.data(); }
+  uint64_t memory_bytes() const noexcept { return across_.size() * sizeof(int32_t); }
+  /// As TetNeighbours::fits.
+  bool fits(HexMesh const& mesh) const noexcept {
+    return mesh.cell_count() == cell_count() && mesh.vertex_count() == vertex_count_ && fingerprint(mesh) == fingerprint_;
+  }
+
+ private:
+  friend HexNeighbours build_hex_neighbours(HexMesh const& mesh);
+  static uint64_t fingerprint(HexMesh const& mesh) noexcept {
+    uint64_t const n = mesh.cell_count();
+    uint64_t h = 0x9e3779b97f4a7c15ull;
+    for (uint64_t k = 0; k < 64 && n > 0; ++k) {
+      uint64_t const c = k * (n - 1) / 63;
+      for (int i = 0; i < 8; ++i) h = (h ^ mesh.vertex(c, i)) * 0x100000001b3ull;
+    }
+    return h;
+  }
+  detail::LargeVector<int32_t> across_;  // unset until built
+  uint64_t vertex_count_ = 0, fingerprint_ = 0;
+};
+
+namespace detail {
+
+/// VTK hexahedron faces (cells/hex.hpp's hex_faces: mesh/ does not include
+/// the kernels).
+inline constexpr int hex_face_corners[6][4] = {{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 5, 4},
+                                               {3, 2, 6, 7}, {0, 3, 7, 4}, {1, 2, 6, 5}};
+
+/// A hex face in the bucket of its smallest vertex: its other distinct
+/// vertex ids, ascending (a triangle's third is the largest Id), and the
+/// slot 6 x cell + face it is of.
+template <class Id> struct HexFaceKey {
+  Id v[3];
+  uint32_t slot;  ///< fits: build_hex_neighbours takes under 2^29 cells
+  bool same_face(HexFaceKey const& o) const noexcept { return v[0] == o.v[0] && v[1] == o.v[1] && v[2] == o.v[2]; }
+  bool operator<(HexFaceKey const& o) const noexcept {
+    for (int i = 0; i < 3; ++i)
+      if (v[i] != o.v[i]) return v[i] < o.v[i];
+    return slot < o.slot;  // a total order: the matching does not depend on arrival order
+  }
+};
+
+/// Face f of hex cell `id` (8 vertex ids): its distinct ids ascending in
+/// v[0..3), padded with `none`; returns how many there are.
+template <class Id> inline int hex_face_ids(uint64_t const id[8], int f, Id none, Id v[4]) noexcept {
+  Id w[4];
+  for (int i = 0; i < 4; ++i) w[i] = Id(id[hex_face_corners[f][i]]);
+  auto cswap = [](Id& x, Id& y) {
+    Id const lo = x < y ? x : y, hi = x < y ? y : x;
+    x = lo, y = hi;
+  };
+  cswap(w[0], w[1]), cswap(w[2], w[3]), cswap(w[0], w[2]), cswap(w[1], w[3]), cswap(w[1], w[2]);
+  int d = 0;
+  for (int i = 0; i < 4; ++i)
+    if (i == 0 || w[i] != w[i - 1]) v[d++] = w[i];
+  for (int i = d; i < 4; ++i) v[i] = none;
+  return d;
+}
+
+/// build_hex_neighbours over `Id` vertex ids. Every face with three or
+/// more distinct vertices goes to the bucket of its smallest vertex (a
+/// counting sort: counts, a scan, a scatter, each cell's faces recomputed
+/// rather than stored), then each bucket is sorted on the other ids and a
+/// run of exactly two equal faces is a shared face. Buckets are small (a
+/// vertex is the smallest of a few faces) and processed in parallel; the
+/// total order within a bucket makes the result independent of the thread
+/// count and of the order the scatter filled it in.
+template <class Id> void match_hex_faces(HexMesh const& mesh, int32_t* across) {
+  uint64_t const n = mesh.cell_count(), nv = mesh.vertex_count();
+  constexpr Id none = std::numeric_limits<Id>::max();
+  constexpr uint64_t grain = 4096;
+  auto cell_ids = [&mesh](uint64_t c, uint64_t id[8]) {
+    for (int k = 0; k < 8; ++k) id[k] = mesh.vertex(c, k);
+  };
+  LargeVector<uint32_t> start;
+  resize_zeroed(start, nv + 1);
+  std::atomic<uint64_t> first_bad{n};
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, grain), [&](tbb::blocked_range<uint64_t> const& r) {
+    for (uint64_t c = r.begin(); c < r.end(); ++c) {
+      uint64_t id[8];
+      cell_ids(c, id);
+      bool bad = false;
+      for (uint64_t v : id) bad = bad || v >= nv;
+      if (bad) {
+        uint64_t seen = first_bad.load();
+        while (c < seen && !first_bad.compare_exchange_weak(seen, c)) {
+        }
+        continue;
+      }
+      for (int f = 0; f < 6; ++f) {
+        Id v[4];
+        across[6 * c + uint64_t(f)] = -1;
+        if (hex_face_ids<Id>(id, f, none, v) >= 3) __atomic_fetch_add(&start[uint64_t(v[0]) + 1], 1u, __ATOMIC_RELAXED);
+      }
+    }
+  });
+  if (uint64_t const c = first_bad.load(); c < n) {
+    for (int k = 0; k < 8; ++k)
+      if (mesh.vertex(c, k) >= nv)
+        throw InvalidMesh("cell " + std::to_string(c) + " corner " + std::to_string(k) + " names vertex " +
+                          std::to_string(mesh.vertex(c, k)) + ", the mesh has " + std::to_string(nv));
+  }
+  for (uint64_t v = 0; v < nv; ++v) start[v + 1] += start[v];  // 6 faces per cell < 2^32 entries: see the caller
+  LargeVector<uint32_t> cursor(start.begin(), start.end() - 1);
+  LargeVector<HexFaceKey<Id>> keys(start[nv]);  // unset: every entry is written below
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, grain), [&](tbb::blocked_range<uint64_t> const& r) {
+    for (uint64_t c = r.begin(); c < r.end(); ++c) {
+      uint64_t id[8];
+      cell_ids(c, id);
+      for (int f = 0; f < 6; ++f) {
+        Id v[4];
+        if (hex_face_ids<Id>(id, f, none, v) < 3) continue;
+        uint32_t const at = __atomic_fetch_add(&cursor[uint64_t(v[0])], 1u, __ATOMIC_RELAXED);
+        keys[at] = HexFaceKey<Id>{{v[1], v[2], v[3]}, uint32_t(6 * c + uint64_t(f))};
+      }
+    }
+  });
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nv, 2048), [&](tbb::blocked_range<uint64_t> const& r) {
+    for (uint64_t a = r.begin(); a < r.end(); ++a) {
+      HexFaceKey<Id>* const b = keys.data() + start[a];
+      uint32_t const m = start[a + 1] - start[a];
+      for (uint32_t i = 1; i < m; ++i) {  // insertion sort: a bucket holds a few faces
+        HexFaceKey<Id> const k = b[i];
+        uint32_t j = i;
+        for (; j > 0 && k < b[j - 1]; --j) b[j] = b[j - 1];
+        b[j] = k;
+      }
+      for (uint32_t i = 0; i < m;) {
+        uint32_t j = i + 1;
+        while (j < m && b[j].same_face(b[i])) ++j;
+        if (j - i == 2) {
+          across[b[i].slot] = int32_t(b[i + 1].slot / 6);
+          across[b[i + 1].slot] = int32_t(b[i].slot / 6);
+        }
+        i = j;
+      }
+    }
+  });
+}
+
+}  // namespace detail
+
+/// Matches every face of a hexahedral mesh (wedges and pyramids included as
+/// collapsed hexahedra) with the face of another cell over the same distinct
+/// vertices: faces bucketed by their smallest vertex, matched within each
+/// bucket (detail::match_hex_faces), in parallel on TBB; the result does
+/// not depend on the thread count. Transient memory: up to 96 bytes per
+/// cell (192 beyond 2^32 vertices) and 8 per vertex; large arrays are
+/// advised as huge pages.
+/// @throws InvalidArgument when the mesh has 2^29 cells or more, or
+///         InvalidMesh naming the first cell with a vertex id out of range.
+inline HexNeighbours build_hex_neighbours(HexMesh const& mesh) {
+  uint64_t const n = mesh.cell_count(), nv = mesh.vertex_count();
+  if (n >= (uint64_t(1) << 29))  // 6 faces per cell: bucket offsets stay 32-bit
+    throw InvalidArgument("hexahedral face neighbours support up to 2^29 - 1 cells, the mesh has " + std::to_string(n));
+  HexNeighbours out;
+  out.across_.resize(6 * n);  // unset: every entry is written below
+  out.vertex_count_ = nv;
+  out.fingerprint_ = HexNeighbours::fingerprint(mesh);
+  if (n == 0) return out;
+  if (nv < (uint64_t(1) << 32)) detail::match_hex_faces<uint32_t>(mesh, out.across_.data());
+  else detail::match_hex_faces<uint64_t>(mesh, out.across_.data());
   return out;
 }
 

@@ -42,19 +42,22 @@ template <int N> void add_part(ScenePart<N> const& part, CellMesh<N> const* mesh
                           std::to_string(part.mesh.cell_count()));
   ValueRanges const& r = part.ranges ? *part.ranges : part.bvh->ranges();
   PreparedPart pp{TreeView(*part.bvh, r), nullptr, nullptr};
+  if (part.neighbours) {
+    if (!part.neighbours->fits(part.mesh))
+      throw InvalidArgument(what + ": its face neighbours were built over another mesh (" +
+                            std::to_string(part.neighbours->cell_count()) + " cells; this one has " +
+                            std::to_string(part.mesh.cell_count()) + ", or other vertex ids)");
+  }
+  // Beyond 32-bit gather offsets (cell x corners, which bounds cell x faces,
+  // and vertex x 3) the march is not available: the tree alone.
+  constexpr uint64_t lim = uint64_t(std::numeric_limits<int32_t>::max());
+  bool const march_fits = part.mesh.cell_count() * N < lim && part.mesh.vertex_count() * 3 < lim;
   if constexpr (N == 4) {
     pp.tets = mesh;
-    if (part.neighbours) {
-      if (!part.neighbours->fits(part.mesh))
-        throw InvalidArgument(what + ": its face neighbours were built over another mesh (" +
-                              std::to_string(part.neighbours->cell_count()) + " cells; this one has " +
-                              std::to_string(part.mesh.cell_count()) + ", or other vertex ids)");
-      constexpr uint64_t lim = uint64_t(std::numeric_limits<int32_t>::max());
-      // Beyond 32-bit gather offsets the march is not available: the tree alone.
-      if (part.mesh.cell_count() * 4 < lim && part.mesh.vertex_count() * 3 < lim) pp.neighbours = part.neighbours;
-    }
+    if (march_fits) pp.neighbours = part.neighbours;
   } else {
     pp.hexes = mesh;
+    if (march_fits) pp.hex_neighbours = part.neighbours;
   }
   out.parts.push_back(pp);
 }

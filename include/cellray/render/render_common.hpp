@@ -21,7 +21,8 @@ struct PreparedPart {
   TreeView tree;
   TetMesh const* tets = nullptr;   ///< exactly one of tets / hexes is set
   HexMesh const* hexes = nullptr;
-  TetNeighbours const* neighbours = nullptr;  ///< tets only: set when DVR segments and AO rays may march
+  TetNeighbours const* neighbours = nullptr;  ///< tets: set when DVR segments and AO rays may march
+  HexNeighbours const* hex_neighbours = nullptr;  ///< hexes: set when DVR segments may march
   float const* gradients = nullptr;     ///< iso, smooth normals: 3 per vertex (VertexGradients)
   float const* color_values = nullptr;  ///< iso coloured by another array: 1 per vertex
 };

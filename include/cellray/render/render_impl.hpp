@@ -919,18 +919,22 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
 
 /// Cell-segment DVR by marching (traverse/march.hpp): the same segments as
 /// integrate_segments, the same pieces (at most `step` long, the transfer
-/// function at each piece's midpoint) and the same compositing, but one cell
-/// per lane per step, integrated across the lanes in SIMD as it is found.
-/// Tet parts with face neighbours only (PreparedPart::neighbours), one part.
-template <class A>
-void integrate_march(PreparedScene const& s, PreparedPart const& part, RayPacket<A> const& r, vmask<A> const& inside,
+/// function at each piece's midpoint), the same field along a segment (tets:
+/// linear; hexes: SegmentQuery's cubic) and the same compositing, but one
+/// cell per lane per step, integrated across the lanes in SIMD as it is
+/// found. Parts with face neighbours only (PreparedPart::neighbours,
+/// hex_neighbours), one part.
+template <class A, int N>
+void integrate_march(PreparedScene const& s, TreeView const& tree, CellMesh<N> const& mesh,
+                     NeighboursOf<N> const& nb, RayPacket<A> const& r, vmask<A> const& inside,
                      vfloat<A> const& t_enter, vfloat<A> const& t_exit, DvrParams const& p, Traversal how,
                      int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca, float depth_at,
                      vfloat<A>& depth) {
   PreparedTf const& ptf = *s.tf;
   bool const shade = p.shading.enabled;
   vfloat<A> const zero(0.f), one(1.f), half(0.5f), term(p.termination), inv_step(1.f / s.step);
-  TetMarch<A> m(part.tree, *part.tets, *part.neighbours, r, s.windows, t_enter, t_exit);
+  CellMarch<A, N> m(tree, mesh, nb, r, s.windows, t_enter, t_exit);
+  RayBatch<A> const ray = ray_batch(r);
   vmask<A> live = inside;
   while (simd::any(live)) {
     // Lanes without a cell wait until no lane has one: one traversal then
@@ -943,7 +947,7 @@ void integrate_march(PreparedScene const& s, PreparedPart const& part, RayPacket
       live = live && !m.locate(live, how, threshold);
       continue;
     }
-    typename TetMarch<A>::Step const st = m.step(has, shade);
+    typename CellMarch<A, N>::Step const st = m.step(has, shade);
     vmask<A> const go = st.visible && ca < term;
     if (simd::any(go)) {
       vfloat<A> const len = st.e - st.a;
@@ -952,13 +956,34 @@ void integrate_march(PreparedScene const& s, PreparedPart const& part, RayPacket
       vfloat<A> const seg_len = st.k.t_out - st.k.t_in;
       vmask<A> const long_enough = seg_len > zero;
       vfloat<A> const inv_len = one / simd::select(long_enough, seg_len, one);
-      vfloat<A> const ds = st.k.s_out - st.k.s_in;
+      // The field along the segment as value(lambda) (integrate_segments'
+      // FieldSegment): a tet's line, a hex's cubic through four points.
+      isa_detail::Cubic<A> f{st.k.s_in, st.k.s_out - st.k.s_in, zero, zero};
+      isa_detail::Cubic<A> gc[3];
+      if constexpr (N == 8) {
+        Vec3<A> u1, u2;
+        vfloat<A> const v1 = SegmentQuery<A, 8>::hex_on_ray(ray, st.c, st.k, go, 1.f / 3.f, u1);
+        vfloat<A> const v2 = SegmentQuery<A, 8>::hex_on_ray(ray, st.c, st.k, go, 2.f / 3.f, u2);
+        f = isa_detail::cubic_through<A>(st.k.s_in, v1, v2, st.k.s_out);
+        if (shade) {
+          Vec3<A> const g0 = isa_detail::hex_world_gradient(st.c, st.k.u_in), g1 = isa_detail::hex_world_gradient(st.c, u1);
+          Vec3<A> const g2 = isa_detail::hex_world_gradient(st.c, u2), g3 = isa_detail::hex_world_gradient(st.c, st.k.u_out);
+          gc[0] = isa_detail::cubic_through<A>(g0.x, g1.x, g2.x, g3.x);
+          gc[1] = isa_detail::cubic_through<A>(g0.y, g1.y, g2.y, g3.y);
+          gc[2] = isa_detail::cubic_through<A>(g0.z, g1.z, g2.z, g3.z);
+        }
+      }
       vfloat<A> piece(0.f);
       for (vmask<A> on = go; simd::any(on); piece = piece + one, on = on && piece < pieces && ca < term) {
         vfloat<A> const tm = st.a + (piece + half) * d;
         vfloat<A> const lam = simd::select(long_enough, (tm - st.k.t_in) * inv_len, zero);
-        PieceColor<A> c = piece_color<A>(ptf, st.k.s_in + lam * ds, d);  // as integrate_pieces
-        if (shade) shade_batch<A>(p.shading, s.inv_gradient_full, st.gradient.x, st.gradient.y, st.gradient.z, r, c.r, c.g, c.b);
+        PieceColor<A> c = piece_color<A>(ptf, f.c0 + lam * (f.c1 + lam * (f.c2 + lam * f.c3)), d);  // as integrate_pieces
+        if (shade) {
+          if constexpr (N == 8)
+            shade_batch<A>(p.shading, s.inv_gradient_full, gc[0](lam), gc[1](lam), gc[2](lam), r, c.r, c.g, c.b);
+          else
+            shade_batch<A>(p.shading, s.inv_gradient_full, st.gradient.x, st.gradient.y, st.gradient.z, r, c.r, c.g, c.b);
+        }
         vfloat<A> const w = simd::select(on, simd::min((one - ca) * c.a, term - ca), zero);  // exact termination
         cr = cr + w * c.r, cg = cg + w * c.g, cb = cb + w * c.b;
         depth = simd::select(ca < vfloat<A>(depth_at) && ca + w >= vfloat<A>(depth_at), tm, depth);
@@ -1099,7 +1124,7 @@ void dvr_packet(PreparedScene const& s, DvrParams const& p, RenderOptions const&
                 vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca, float depth_at, vfloat<A>& depth) {
   constexpr int W = width<A>;
   int const threshold = o.hybrid_threshold > 0 ? o.hybrid_threshold : std::max(1, W / 4);
-  bool const march = s.parts.size() == 1 && s.parts[0].neighbours;
+  bool const march = s.parts.size() == 1 && (s.parts[0].neighbours || s.parts[0].hex_neighbours);
   // The part of each ray inside the scene's bounds. An empty scene's box
   // (lo = +inf, hi = -inf) passes the slab test for every t: no ray is
   // inside it (else the sample march never ends).
@@ -1120,9 +1145,12 @@ void dvr_packet(PreparedScene const& s, DvrParams const& p, RenderOptions const&
   if (p.mode == DvrMode::samples)
     integrate_samples<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, scratch.sample_cull.data(), cr, cg,
                          cb, ca, depth_at, depth);
+  else if (march && s.parts[0].tets)
+    integrate_march<A, 4>(s, s.parts[0].tree, *s.parts[0].tets, *s.parts[0].neighbours, r, inside, t_enter, t_exit, p,
+                          o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
   else if (march)
-    integrate_march<A>(s, s.parts[0], r, inside, t_enter, t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at,
-                       depth);
+    integrate_march<A, 8>(s, s.parts[0].tree, *s.parts[0].hexes, *s.parts[0].hex_neighbours, r, inside, t_enter,
+                          t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
   else
     integrate_segments<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, scratch.segments, cr, cg, cb, ca,
                           depth_at, depth);

@@ -1,7 +1,8 @@
 #pragma once
-// Marching rays from tet to tet through face neighbours (mesh/neighbours.hpp),
-// one ray per lane: cell-segment DVR (TetMarch) and the occlusion of short
-// rays that start in known cells (march_occluded, ambient occlusion). Not in
+// Marching rays from cell to cell through face neighbours (mesh/neighbours.hpp),
+// one ray per lane: cell-segment DVR (CellMarch: tets, and hexahedra with the
+// wedges and pyramids read as collapsed ones) and the occlusion of short
+// rays that start in known tets (march_occluded, ambient occlusion). Not in
 // the paper. ISA units only.
 //
 // A packet traversal clips every cell of every leaf the packet reaches; on a
@@ -17,11 +18,15 @@
 //
 // The segments are the packet clip's (same kernel, same canonical faces), so
 // a march integrates what a traversal would, cell for cell; shared faces give
-// bit-identical t and values on both sides.
+// bit-identical t and values on both sides. A hex clip's exit face is the
+// face of the crossing at its t_out: near an edge that may be the wrong one
+// of two, and the neighbour across it then makes no progress, which sends
+// the lane back to the tree (as for a tet ray through an edge).
 
 #include <algorithm>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 
 #include "../mesh/neighbours.hpp"
 #include "cell_ops.hpp"
@@ -31,20 +36,34 @@
 namespace cellray {
 inline namespace CELLRAY_ISA_NS {
 
+/// Lanes whose cell may have opacity on the ray: a tet's field is linear
+/// along it, so its end values bound it; a hex's may exceed them inside and
+/// is bounded by its corner values (trilinear: a convex combination).
+template <class A, int N>
+inline vmask<A> visible_values(ValueWindows const& w, CellCorners<A, N> const& c, CellClip<A> const& k) {
+  if constexpr (N == 4) return windows_overlap<A>(w, simd::min(k.s_in, k.s_out), simd::max(k.s_in, k.s_out));
+  vfloat<A> vmin = c.s[0], vmax = c.s[0];
+  for (int i = 1; i < N; ++i) vmin = simd::min(vmin, c.s[i]), vmax = simd::max(vmax, c.s[i]);
+  return windows_overlap<A>(w, vmin, vmax);
+}
+
+/// Face neighbours of a mesh with N corners per cell.
+template <int N> using NeighboursOf = std::conditional_t<N == 4, TetNeighbours, HexNeighbours>;
+
 /// Per lane, the visible cell the ray is in or enters first after `lo`: the
 /// smallest t_in of the cells whose clip interval ends past lo (strictly, so
 /// a march from it progresses) and starts by `hi`, with no NaN corner value
 /// and field values along the ray that meet a value window. -1: none.
-template <class A> struct FirstCellQuery {
+template <class A, int N> struct FirstCellQuery {
   TreeView const* tree_;
-  TetMesh const* mesh_;
+  CellMesh<N> const* mesh_;
   RayPacket<A> const& r;
   ValueWindows const& windows;
   vfloat<A> lo, hi;
   vfloat<A> best_t = vfloat<A>(std::numeric_limits<float>::infinity());  ///< t_in of `cell`
   vint<A> cell = vint<A>(-1);
 
-  FirstCellQuery(TreeView const& t, TetMesh const& m, RayPacket<A> const& rays, ValueWindows const& w,
+  FirstCellQuery(TreeView const& t, CellMesh<N> const& m, RayPacket<A> const& rays, ValueWindows const& w,
                  vfloat<A> const& t_lo, vfloat<A> const& t_hi)
       : tree_(&t), mesh_(&m), r(rays), windows(w), lo(t_lo), hi(t_hi) {}
   TreeView const& tree() const { return *tree_; }
@@ -55,25 +74,25 @@ template <class A> struct FirstCellQuery {
   vfloat<A> t_lo() const { return lo; }
   vfloat<A> t_hi() const { return simd::min(hi, best_t); }  // a cell entered past the best cannot be better
 
-  void visit(CellCorners<A, 4> const& c, vmask<A> const& m, vint<A> const& cells) {
-    CellClip<A> const k = clip_tet_window(ray_batch(r), c, m, lo, t_hi());
+  void visit(CellCorners<A, N> const& c, vmask<A> const& m, vint<A> const& cells) {
+    auto const k = CellOps<A, N>::clip_window(ray_batch(r), c, m, lo, t_hi());
     vmask<A> ok = k.hit && k.t_out > lo && k.t_in < best_t && !has_nan_value(c);
     if (simd::none(ok)) return;
-    ok = ok && windows_overlap<A>(windows, simd::min(k.s_in, k.s_out), simd::max(k.s_in, k.s_out));
+    ok = ok && visible_values<A, N>(windows, c, k);
     best_t = simd::select(ok, k.t_in, best_t);
     cell = simd::select(simd::to_int_mask(ok), cells, cell);
   }
   void leaf(uint64_t first, uint32_t n, vmask<A> const& m) {  // as SegmentQuery::leaf
-    for_each_leaf_cell<A, 4>(
+    for_each_leaf_cell<A, N>(
         *tree_, *mesh_, r, first, n, m, lo, [this](float vmin, float vmax) { return windows.overlaps(vmin, vmax); },
         [this] { return t_hi(); },
-        [this](CellCorners<A, 4> const& c, vmask<A> const& in_box, uint64_t, uint64_t id) {
+        [this](CellCorners<A, N> const& c, vmask<A> const& in_box, uint64_t, uint64_t id) {
           visit(c, in_box, vint<A>(int32_t(id)));
         });
   }
   void leaf_items(vint<A> const& slots, vmask<A> const& m) {
     vint<A> const cv = slot_cells<A>(*tree_, slots, m);
-    visit(gather_corners<A, 4>(*mesh_, cv, m), m, cv);
+    visit(gather_corners<A, N>(*mesh_, cv, m), m, cv);
   }
 };
 
@@ -81,10 +100,12 @@ template <class A> struct FirstCellQuery {
 /// mesh fits 32-bit gather offsets). The renderer drives it:
 /// locate() for lanes without a cell, step() for the others, integrating
 /// each step's segments, until its lanes are done.
-template <class A> struct TetMarch {
+template <class A, int N> struct CellMarch {
+  static constexpr int faces = N == 4 ? 4 : 6;
+  using Clip = typename CellOps<A, N>::Clip;
   TreeView const& tree;
-  TetMesh const& mesh;
-  int32_t const* across;  ///< TetNeighbours::data()
+  CellMesh<N> const& mesh;
+  int32_t const* across;  ///< NeighboursOf<N>::data()
   RayPacket<A> const& r;
   ValueWindows const& windows;
   /// Cells in a row without a visible segment before a lane asks the tree
@@ -99,26 +120,26 @@ template <class A> struct TetMarch {
   /// cannot progress (a defensive end; the clip of the located cell
   /// progresses by construction, see FirstCellQuery).
   vfloat<A> located_at = vfloat<A>(std::numeric_limits<float>::quiet_NaN());
-  /// The corners of every lane's last cell (valid after a step, until the
-  /// next locate): a lane's next cell shares three of them.
-  CellCorners<A, 4> last;
+  /// Tets: the corners of every lane's last cell (valid after a step, until
+  /// the next locate): a lane's next cell shares three of them.
+  CellCorners<A, N> last;
   bool last_valid = false;
-  /// next_corners applies: 32-bit indices whose ids are the corners' keys.
-  bool const reuse_ok = mesh.has_32bit_indices() && mesh.vertex_count() <= (uint64_t(1) << 31);
+  /// next_corners applies: tets with 32-bit indices whose ids are the corners' keys.
+  bool const reuse_ok = N == 4 && mesh.has_32bit_indices() && mesh.vertex_count() <= (uint64_t(1) << 31);
 
   /// What a step found per lane: the cell's clip and the piece [a, e] of it
   /// the ray has not integrated yet; `visible` where that piece may have
   /// opacity (no NaN corner, values meeting a window, e > a).
   struct Step {
-    CellCorners<A, 4> c;
-    CellClip<A> k;
+    CellCorners<A, N> c;
+    Clip k;
     vfloat<A> a, e;
     vmask<A> visible;
-    Vec3<A> gradient;  ///< the cell's (constant) field gradient, when asked for
+    Vec3<A> gradient;  ///< tets: the cell's (constant) field gradient, when asked for
   };
 
-  TetMarch(TreeView const& tr, TetMesh const& m, TetNeighbours const& nb, RayPacket<A> const& rays,
-           ValueWindows const& w, vfloat<A> const& t_start, vfloat<A> const& t_stop)
+  CellMarch(TreeView const& tr, CellMesh<N> const& m, NeighboursOf<N> const& nb, RayPacket<A> const& rays,
+            ValueWindows const& w, vfloat<A> const& t_start, vfloat<A> const& t_stop)
       : tree(tr), mesh(m), across(nb.data()), r(rays), windows(w), t(t_start), t_end(t_stop) {}
 
   vmask<A> has_cell() const { return simd::to_float_mask(cell >= vint<A>(0)); }
@@ -128,7 +149,7 @@ template <class A> struct TetMarch {
   vmask<A> locate(vmask<A> const& need, Traversal how, int threshold) {
     vmask<A> const stuck = need && t == located_at;
     vmask<A> const ask = need && !stuck;
-    FirstCellQuery<A> q(tree, mesh, r, windows, t, t_end);
+    FirstCellQuery<A, N> q(tree, mesh, r, windows, t, t_end);
     switch (how) {
       case Traversal::packet: traverse_packet<A>(tree, r, ask, q); break;
       case Traversal::hybrid: traverse_packet<A>(tree, r, ask, q, 0, threshold); break;
@@ -148,32 +169,37 @@ template <class A> struct TetMarch {
   /// `max_faint` invisible cells in a row). t advances to the exit.
   Step step(vmask<A> const& lanes, bool want_gradient) {
     Step s;
-    s.c = last_valid ? next_corners(lanes) : gather_corners<A, 4>(mesh, cell, lanes);
-    CellCorners<A, 4> const& c = s.c;
     vint<A> exit_face(0);
-    s.k = clip_tet_window(ray_batch(r), c, lanes, t, t_end, &exit_face);
+    if constexpr (N == 4) {
+      s.c = last_valid ? next_corners(lanes) : gather_corners<A, 4>(mesh, cell, lanes);
+      s.k = clip_tet_window(ray_batch(r), s.c, lanes, t, t_end, &exit_face);
+      if (want_gradient) s.gradient = gradient_tet(s.c);
+    } else {
+      s.c = gather_corners<A, N>(mesh, cell, lanes);
+      s.k = clip_hex_window(ray_batch(r), s.c, lanes, t, t_end, &exit_face);
+    }
+    CellCorners<A, N> const& c = s.c;
     vmask<A> const progress = s.k.hit && s.k.t_out > t;
     s.a = simd::max(s.k.t_in, t), s.e = simd::min(s.k.t_out, t_end);
-    s.visible = progress && s.e > s.a && !has_nan_value(c) &&
-                windows_overlap<A>(windows, simd::min(s.k.s_in, s.k.s_out), simd::max(s.k.s_in, s.k.s_out));
-    if (want_gradient) s.gradient = gradient_tet(c);
+    s.visible = progress && s.e > s.a && !has_nan_value(c) && visible_values<A, N>(windows, c, s.k);
     vmaski<A> const pi = simd::to_int_mask(progress);
-    vint<A> const slot = simd::select(pi, cell * vint<A>(4) + exit_face, vint<A>(0));
+    vint<A> const slot = simd::select(pi, cell * vint<A>(faces) + exit_face, vint<A>(0));
     vint<A> const next = simd::gather(across, slot);
     faint = simd::select(simd::to_int_mask(s.visible), vint<A>(0), faint + vint<A>(1));
     t = simd::select(progress, s.e, t);
     vmaski<A> const go_on = pi && faint <= vint<A>(max_faint);
     cell = simd::select(simd::to_int_mask(lanes), simd::select(go_on, next, vint<A>(-1)), cell);
-    last = c, last_valid = reuse_ok;
+    if constexpr (N == 4) last = c, last_valid = reuse_ok;
     return s;
   }
 
-  /// gather_corners for lanes whose cell is the neighbour of their last one:
+  /// gather_corners for lanes whose tet is the neighbour of their last one:
   /// the new cell's ids (4 gathers, sorted as gather_corners sorts them),
   /// the three corners it shares with the last cell taken from there, and
   /// only the fourth vertex's position and value gathered (4 gathers instead
   /// of 16). The same corners, bit for bit.
   CellCorners<A, 4> next_corners(vmask<A> const& lanes) const {
+    static_assert(N == 4);
     CellCorners<A, 4> c;
     vint<A> const cl = simd::select(simd::to_int_mask(lanes), cell, vint<A>(0));
     auto const* idx = reinterpret_cast<int32_t const*>(mesh.indices32());
@@ -210,6 +236,9 @@ template <class A> struct TetMarch {
     return c;
   }
 };
+
+/// The tet march (cell-segment DVR and AO rays of tet meshes).
+template <class A> using TetMarch = CellMarch<A, 4>;
 
 /// Occlusion (any hit, traverse/occlusion.hpp) of short rays that start in
 /// known cells (ambient-occlusion rays leave an isosurface hit in its hit
