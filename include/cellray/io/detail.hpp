@@ -217,7 +217,10 @@ struct NumArray {
   bool swap = false;  ///< bytes are in the other byte order than the host's
   uint64_t count = 0;
   unsigned char const* data = nullptr;
-  std::vector<unsigned char> owned;
+  /// Decoded bytes: resize() leaves them unset (they are written next), and
+  /// large ones are huge pages (memory.hpp), so a decoded array costs no
+  /// zeroing pass and few first-write faults.
+  cellray::detail::LargeVector<unsigned char> owned;
 
   NumArray() = default;
   NumArray(NumArray&&) = default;
@@ -246,7 +249,7 @@ struct NumArray {
     return a;
   }
   /// Takes ownership of decoded bytes.
-  static NumArray owning_bytes(NumType type, uint64_t count, std::vector<unsigned char> bytes, bool swap) {
+  static NumArray owning_bytes(NumType type, uint64_t count, cellray::detail::LargeVector<unsigned char> bytes, bool swap) {
     NumArray a;
     a.type = type;
     a.count = count;
