@@ -6,6 +6,7 @@
 // XML parser (it is not XML): the document is cut at the '_' marker.
 // Needs pugixml and zlib at link time (CMake: pugixml::pugixml ZLIB::ZLIB).
 
+#include <cassert>
 #include <cstdint>
 #include <set>
 #include <string>
@@ -429,6 +430,23 @@ class VtuParser {
   uint64_t appended_base_ = 0, appended_end_ = 0, header_size_ = 4;
   std::set<std::string> formats_;
   std::vector<std::pair<std::string, std::vector<float>>> polyhedra_values_;  // per cell array
+  // Decoded base64 arrays, one after another in one buffer sized for all of
+  // them (3 bytes per 4 of file): it is huge pages from 4 MB (memory.hpp),
+  // where a buffer per array cost ~2,000 first-write faults of 4 KB (~30 ms)
+  // on the 11 MB flange. Only what is decoded is ever touched. The arrays
+  // viewing it live no longer than the parser.
+  cellray::detail::LargeVector<unsigned char> arena_;
+  uint64_t arena_used_ = 0;
+
+  /// `n` bytes of arena_, 64-byte aligned, or null when they do not fit (an
+  /// appended array decoded twice, or inflated data).
+  unsigned char* arena_take(uint64_t n) {
+    if (arena_.empty()) arena_.resize(src_.bytes.size() / 4 * 3 + 64);  // unset, untouched
+    uint64_t const at = (arena_used_ + 63) & ~uint64_t(63);
+    if (at > arena_.size() || n > arena_.size() - at) return nullptr;
+    arena_used_ = at + n;
+    return arena_.data() + at;
+  }
 
   uint64_t offset(pugi::xml_node n) const {
     ptrdiff_t const o = n.offset_debug();
@@ -585,6 +603,10 @@ class VtuParser {
         src_.fail_byte(s.offset(), what + ": " + std::to_string(bytes) + " bytes declared but at most " +
                                        std::to_string(s.max_left()) + " are left");
       if (!s.base64()) return NumArray::viewing(t, bytes / esize, s.raw(bytes), swap_);
+      if (unsigned char* const p = arena_take(bytes)) {
+        s.read(p, bytes);
+        return NumArray::viewing(t, bytes / esize, p, swap_);
+      }
       cellray::detail::LargeVector<unsigned char> out(bytes);
       s.read(out.data(), bytes);
       return NumArray::owning_bytes(t, bytes / esize, std::move(out), swap_);
@@ -715,40 +737,82 @@ class VtuParser {
       prev_end = stop;
     }
 
-    // Pass 2, in parallel (each polyhedron is independent; ~40% of a
-    // polyhedral file's load when serial): check and decompose chunks of
-    // polyhedra into per-chunk cells. Centre points and their values go
-    // straight to their final place (vertex np + k).
+    // Pass 2, in parallel: each polyhedron's cell counts from its face sizes
+    // alone (decompose_polyhedron makes a pyramid of a quad, n - 2 tets of an
+    // n-gon), so that pass 3 writes every cell in its final place in storage
+    // grown once (growing it per polyhedron cost ~15% of the flange's load in
+    // copies and first-write faults). A malformed stream counts what it can;
+    // pass 3 stops at it before writing anything of it.
     uint64_t const npoly = polys.size();
-    cellray::detail::resize_zeroed(grid.xyz, 3 * (np + npoly));
-    for (auto& pa : grid.point_arrays) cellray::detail::resize_zeroed(pa.values, np + npoly);
     constexpr uint64_t grain = 256;
     uint64_t const nchunks = (npoly + grain - 1) / grain;
-    struct Chunk {
-      std::vector<uint32_t> tets, hexes;
-      std::vector<uint32_t> ntets, nhexes;  // per polyhedron
-      uint64_t error_at = ~uint64_t(0);     // polyhedron index of the first error
-      std::string error;
+    tbb::blocked_range<uint64_t> const all(0, nchunks, 1);
+    auto for_chunks = [&](auto const& f) {
+      if (nchunks <= 1) f(all);
+      else tbb::parallel_for(all, f);
     };
-    std::vector<Chunk> chunks(nchunks);
-    static char const* const too_many = "(centre ids pass 2^32 - 1)";  // a chunk's error, worded below
+    std::vector<uint64_t> tet_at(npoly + 1, 0), hex_at(npoly + 1, 0);  // counts, then prefix sums
+    for_chunks([&](tbb::blocked_range<uint64_t> const& r) {
+      for (uint64_t k = r.begin() * grain, ke = std::min(npoly, r.end() * grain); k < ke; ++k) {
+        uint64_t i = polys[k].begin, e = polys[k].end, nt = 0, nh = 0;
+        int64_t const nfaces = i < e ? faces.as_int(i++) : 0;
+        for (int64_t j = 0; j < nfaces && i < e; ++j) {
+          int64_t const n = faces.as_int(i);
+          if (n < 3 || uint64_t(n) >= e - i) break;
+          (n == 4 ? nh : nt) += n == 4 ? 1 : uint64_t(n - 2);
+          i += uint64_t(n) + 1;
+        }
+        tet_at[k + 1] = nt;
+        hex_at[k + 1] = nh;
+      }
+    });
+    tet_at[0] = grid.tet_count();
+    hex_at[0] = grid.hex_count();
+    for (uint64_t k = 0; k < npoly; ++k) {
+      tet_at[k + 1] += tet_at[k];
+      hex_at[k + 1] += hex_at[k];
+    }
+    uint64_t const new_tets = tet_at[npoly] - tet_at[0], new_hexes = hex_at[npoly] - hex_at[0];
+    cellray::detail::resize_zeroed(grid.tets, 4 * tet_at[npoly]);
+    cellray::detail::resize_zeroed(grid.hexes, 8 * hex_at[npoly]);
+    cellray::detail::resize_zeroed(grid.xyz, 3 * (np + npoly));
+    for (auto& pa : grid.point_arrays) cellray::detail::resize_zeroed(pa.values, np + npoly);
+    std::vector<float*> value_tets(cell_arrays.size()), value_hexes(cell_arrays.size());  // where new values go
+    for (size_t a = 0; a < cell_arrays.size(); ++a) {
+      uint64_t const t0 = cell_arrays[a]->tet_values.size(), h0 = cell_arrays[a]->hex_values.size();
+      cellray::detail::resize_zeroed(cell_arrays[a]->tet_values, t0 + new_tets);
+      cellray::detail::resize_zeroed(cell_arrays[a]->hex_values, h0 + new_hexes);
+      value_tets[a] = cell_arrays[a]->tet_values.data() + t0 - tet_at[0];
+      value_hexes[a] = cell_arrays[a]->hex_values.data() + h0 - hex_at[0];
+    }
+
+    // Pass 3, in parallel (each polyhedron is independent; check and
+    // decompose were ~15% of the load when serial): polyhedron k's cells,
+    // centre point (vertex np + k) and values go straight to their place.
+    struct ChunkError {
+      uint64_t at = ~uint64_t(0);  // polyhedron index of the chunk's first error
+      std::string what;
+    };
+    std::vector<ChunkError> errors(nchunks);
+    static char const* const too_many = "(centre ids pass 2^32 - 1)";  // worded below
     float* const xyz = grid.xyz.data();
-    auto work = [&](tbb::blocked_range<uint64_t> const& r) {
+    uint32_t* const tets = grid.tets.data();
+    uint32_t* const hexes = grid.hexes.data();
+    for_chunks([&](tbb::blocked_range<uint64_t> const& r) {
       PolyhedronFaces f;
       std::vector<uint64_t> verts;
       for (uint64_t j = r.begin(); j < r.end(); ++j) {
-        Chunk& ch = chunks[j];
         for (uint64_t k = j * grain, ke = std::min(npoly, k + grain); k < ke; ++k) {
           std::string err = parse_polyhedron(faces, polys[k], f);
           if (err.empty())
             if (std::string const bad = check_polyhedron(f, np); !bad.empty()) err = " " + bad;
           if (err.empty() && np + k > std::numeric_limits<uint32_t>::max()) err = too_many;
           if (!err.empty()) {
-            ch.error_at = k;
-            ch.error = std::move(err);
+            errors[j] = {k, std::move(err)};
             break;
           }
           PolyhedronSplit const split = decompose_polyhedron(f, xyz, np + k);
+          assert(split.tets.size() == tet_at[k + 1] - tet_at[k] && split.hexes.size() == hex_at[k + 1] - hex_at[k]);
           for (int a = 0; a < 3; ++a) xyz[3 * (np + k) + uint64_t(a)] = float(split.centre[a]);
           if (need_means) {
             verts.assign(f.ids.begin(), f.ids.end());
@@ -767,71 +831,37 @@ class VtuParser {
             }
             grid.point_arrays[a].values[np + k] = value;
           }
-          for (auto const& t : split.tets)
-            for (uint64_t v : t) ch.tets.push_back(uint32_t(v));
-          for (auto const& h : split.hexes)
-            for (uint64_t v : h) ch.hexes.push_back(uint32_t(v));
-          ch.ntets.push_back(uint32_t(split.tets.size()));
-          ch.nhexes.push_back(uint32_t(split.hexes.size()));
-        }
-      }
-    };
-    tbb::blocked_range<uint64_t> const all(0, nchunks, 1);
-    if (nchunks <= 1) work(all);
-    else tbb::parallel_for(all, work);
-    for (Chunk const& ch : chunks) {
-      if (ch.error.empty()) continue;
-      std::string const at = src_.at_line(offset(faces_el)) + "faces: ";
-      if (ch.error == too_many) throw IoError(at + "the polyhedra's centre points pass 2^32 - 1 vertices");
-      throw IoError(at + "polyhedron cell " + std::to_string(polys[ch.error_at].cell) + ch.error);
-    }
-    if (!order_error.empty()) src_.fail_line(offset(face_offsets_el), order_error);
-
-    // Pass 3: the chunks' cells after the file's, in polyhedron order, with
-    // their cell-array values; copied in parallel into storage grown once.
-    std::vector<uint64_t> tet_at(nchunks + 1, grid.tet_count()), hex_at(nchunks + 1, grid.hex_count());
-    for (uint64_t j = 0; j < nchunks; ++j) {
-      tet_at[j + 1] = tet_at[j] + chunks[j].tets.size() / 4;
-      hex_at[j + 1] = hex_at[j] + chunks[j].hexes.size() / 8;
-    }
-    uint64_t const new_tets = tet_at[nchunks] - tet_at[0], new_hexes = hex_at[nchunks] - hex_at[0];
-    cellray::detail::resize_zeroed(grid.tets, 4 * tet_at[nchunks]);
-    cellray::detail::resize_zeroed(grid.hexes, 8 * hex_at[nchunks]);
-    std::vector<uint64_t> value_tets(cell_arrays.size()), value_hexes(cell_arrays.size());  // each array's first new value
-    for (size_t a = 0; a < cell_arrays.size(); ++a) {
-      value_tets[a] = cell_arrays[a]->tet_values.size();
-      value_hexes[a] = cell_arrays[a]->hex_values.size();
-      cellray::detail::resize_zeroed(cell_arrays[a]->tet_values, value_tets[a] + new_tets);
-      cellray::detail::resize_zeroed(cell_arrays[a]->hex_values, value_hexes[a] + new_hexes);
-    }
-    auto place = [&](tbb::blocked_range<uint64_t> const& r) {
-      for (uint64_t j = r.begin(); j < r.end(); ++j) {
-        Chunk const& ch = chunks[j];
-        std::copy(ch.tets.begin(), ch.tets.end(), grid.tets.begin() + std::ptrdiff_t(4 * tet_at[j]));
-        std::copy(ch.hexes.begin(), ch.hexes.end(), grid.hexes.begin() + std::ptrdiff_t(8 * hex_at[j]));
-        for (size_t a = 0; a < cell_arrays.size(); ++a) {
-          float* tv = cell_arrays[a]->tet_values.data() + value_tets[a] + (tet_at[j] - tet_at[0]);
-          float* hv = cell_arrays[a]->hex_values.data() + value_hexes[a] + (hex_at[j] - hex_at[0]);
-          for (size_t i = 0; i < ch.ntets.size(); ++i) {
-            float const v = cell_values[a].second[j * grain + i];
-            tv = std::fill_n(tv, ch.ntets[i], v);
-            hv = std::fill_n(hv, ch.nhexes[i], v);
+          uint32_t* t = tets + 4 * tet_at[k];
+          for (auto const& c : split.tets)
+            for (uint64_t v : c) *t++ = uint32_t(v);
+          uint32_t* h = hexes + 8 * hex_at[k];
+          for (auto const& c : split.hexes)
+            for (uint64_t v : c) *h++ = uint32_t(v);
+          for (size_t a = 0; a < cell_arrays.size(); ++a) {
+            float const v = cell_values[a].second[k];
+            std::fill(value_tets[a] + tet_at[k], value_tets[a] + tet_at[k + 1], v);
+            std::fill(value_hexes[a] + hex_at[k], value_hexes[a] + hex_at[k + 1], v);
           }
         }
       }
-    };
-    if (nchunks <= 1) place(all);
-    else tbb::parallel_for(all, place);
+    });
+    for (ChunkError const& e : errors) {
+      if (e.what.empty()) continue;
+      std::string const at = src_.at_line(offset(faces_el)) + "faces: ";
+      if (e.what == too_many) throw IoError(at + "the polyhedra's centre points pass 2^32 - 1 vertices");
+      throw IoError(at + "polyhedron cell " + std::to_string(polys[e.at].cell) + e.what);
+    }
+    if (!order_error.empty()) src_.fail_line(offset(face_offsets_el), order_error);
     grid.report.polyhedron_tets += new_tets;
     grid.report.polyhedron_pyramids += new_hexes;
     grid.report.polyhedra_split = npoly;
   }
 
-  /// Polyhedron p's face stream [nfaces, n0, ids..., n1, ids...] into `f`;
-  /// "" or what is wrong, to follow "polyhedron cell C".
   struct PolyRange {
     uint64_t cell, begin, end;  ///< file cell; its face stream is faces[begin, end)
   };
+  /// Polyhedron p's face stream [nfaces, n0, ids..., n1, ids...] into `f`;
+  /// "" or what is wrong, to follow "polyhedron cell C".
   static std::string parse_polyhedron(NumArray const& faces, PolyRange const& p, PolyhedronFaces& f) {
     int64_t const stop = int64_t(p.end);
     uint64_t i = p.begin;
