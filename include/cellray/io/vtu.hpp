@@ -7,6 +7,7 @@
 // Needs pugixml and zlib at link time (CMake: pugixml::pugixml ZLIB::ZLIB).
 
 #include <cassert>
+#include <exception>
 #include <cstdint>
 #include <set>
 #include <string>
@@ -393,10 +394,36 @@ class VtuParser {
     }
     NumArray const conn = decode(conn_el, uint64_t(prev), "connectivity");
     NumArray const types = decode(type_el, nc, "types");
+    pugi::xml_node const faces_el = optional_named(cells, "faces"), face_offsets_el = optional_named(cells, "faceoffsets");
+    uint64_t file_tets = 0, file_hexes = 0, npoly = 0;  // upper bounds, for reserving storage
+    with_ints(types, [&](auto const type_of) {
+      for (uint64_t c = 0; c < nc; ++c) {
+        uint64_t nodes;
+        bool exact;
+        CellKind const k = classify_cell(type_of(c), nodes, exact);
+        file_tets += k == CellKind::tet;
+        file_hexes += k == CellKind::hex || k == CellKind::voxel;
+        npoly += k == CellKind::polyhedron;
+      }
+    });
+    if (npoly) {
+      plan_faces_el_ = faces_el;
+      plan_face_offsets_el_ = face_offsets_el;
+      try {
+        plan_polyhedra(types, faces_el, face_offsets_el, cells);
+      } catch (IoError const&) {
+        plan_.failed = std::current_exception();
+      }
+      if (!plan_.failed) {
+        grid.tets.reserve(4 * (file_tets + plan_.tet_at.back()));
+        grid.hexes.reserve(8 * (file_hexes + plan_.hex_at.back()));
+        grid.xyz.reserve(3 * (np + plan_.polys.size()));
+        poly_spare_ = Spare{plan_.polys.size(), plan_.tet_at.back(), plan_.hex_at.back()};
+      }
+    }
     CellLocator where;
     where.conn = [&](uint64_t) { return src_.at_line(offset(conn_el)) + "connectivity: "; };
     where.type = [&](uint64_t) { return src_.at_line(offset(type_el)) + "types: "; };
-    pugi::xml_node const faces_el = optional_named(cells, "faces"), face_offsets_el = optional_named(cells, "faceoffsets");
     CellKinds const kinds = build_cells(
         nc, types, conn,
         [&offsets](uint64_t c) {
@@ -408,7 +435,7 @@ class VtuParser {
     for (pugi::xml_node a : piece.child("PointData").children()) array(grid, a, np, false, kinds);
     for (pugi::xml_node a : piece.child("CellData").children()) array(grid, a, nc, true, kinds);
     if (std::find(kinds.begin(), kinds.end(), uint8_t(3)) != kinds.end())
-      split_polyhedra(grid, kinds, faces_el, face_offsets_el, cells);
+      split_polyhedra(grid);
     for (pugi::xml_node a : ug.child("FieldData").children())
       grid.report.arrays_ignored.push_back("field " + in_quotes(a.attribute("Name").value()) + " (dataset field data)");
 
@@ -679,10 +706,10 @@ class VtuParser {
     if (cell) {
       std::vector<float> poly;
       size_t const before = grid.cell_arrays.size();
-      add_cell_array(grid, name, data, ncomp, kinds, &poly);
+      add_cell_array(grid, name, data, ncomp, kinds, &poly, poly_spare_.tets, poly_spare_.hexes);
       if (grid.cell_arrays.size() > before) polyhedra_values_.emplace_back(name, std::move(poly));  // not a duplicate name
     } else {
-      add_point_array(grid, std::move(name), data, ncomp);
+      add_point_array(grid, std::move(name), data, ncomp, poly_spare_.points);
     }
   }
 
@@ -693,15 +720,102 @@ class VtuParser {
   /// polyhedron's own value when a cell array has the same name (foamToVTK:
   /// the cell's value at the cell centre), else the mean of its vertices.
   /// The new cells carry the polyhedron's cell-array values.
-  void split_polyhedra(UnstructuredGrid& grid, CellKinds const& kinds, pugi::xml_node faces_el,
-                       pugi::xml_node face_offsets_el, pugi::xml_node cells) {
+  /// Passes 1 and 2 of the polyhedra split, run before any cell is stored:
+  /// the cells' storage is then reserved once for the file's cells and the
+  /// polyhedra's (growing it after the file's cells cost a copy and the
+  /// first-write faults of the first buffer, ~15% of the flange's load). Its
+  /// errors are kept in `failed` and thrown by split_polyhedra, so errors
+  /// come in the order they always did.
+  struct PolyRange {
+    uint64_t cell, begin, end;  ///< file cell; its face stream is faces[begin, end)
+  };
+  struct PolyPlan {
+    NumArray faces, face_offsets;
+    std::vector<PolyRange> polys;                // the polyhedra in file order, up to order_error
+    std::string order_error;                     // a faceoffsets error after polys
+    std::vector<uint64_t> tet_at, hex_at;        // polyhedron k's first new tet / hex (prefix sums)
+    std::exception_ptr failed;
+  };
+  PolyPlan plan_;
+  pugi::xml_node plan_faces_el_, plan_face_offsets_el_;
+  struct Spare {
+    uint64_t points = 0, tets = 0, hexes = 0;
+  };
+  Spare poly_spare_;  // what the polyhedra add: room reserved in the arrays read before the split
+
+  void plan_polyhedra(NumArray const& types, pugi::xml_node faces_el, pugi::xml_node face_offsets_el, pugi::xml_node cells) {
     if (!faces_el || !face_offsets_el)
       src_.fail_line(offset(cells), "polyhedra (VTK type 42) need the DataArrays 'faces' and 'faceoffsets'");
-    uint64_t const nc = kinds.size(), np = grid.vertex_count();
-    NumArray const face_offsets = decode(face_offsets_el, nc, "faceoffsets");
+    uint64_t const nc = types.count;
+    PolyPlan& p = plan_;
+    p.face_offsets = decode(face_offsets_el, nc, "faceoffsets");
+    NumArray const& face_offsets = p.face_offsets;
     int64_t end = 0;
     for (uint64_t c = 0; c < nc; ++c) end = std::max(end, face_offsets.as_int(c));
-    NumArray const faces = decode(faces_el, uint64_t(end), "faces");
+    p.faces = decode(faces_el, uint64_t(end), "faces");
+    NumArray const& faces = p.faces;
+
+    // Pass 1, in file order (cheap): each polyhedron's face stream. A
+    // faceoffsets error is kept, not thrown, so that an error in an earlier
+    // polyhedron's faces is still the one reported, as in a serial walk.
+    // Polyhedra are the cells of type 42 (build_cells' kind 3).
+    int64_t prev_end = 0;
+    for (uint64_t c = 0; c < nc; ++c) {
+      int64_t const stop = face_offsets.as_int(c);
+      if (types.as_int(c) != 42) {
+        if (stop >= 0) prev_end = stop;
+        continue;
+      }
+      if (stop < prev_end) {
+        p.order_error = "faceoffsets: polyhedron cell " + std::to_string(c) + " ends at " + std::to_string(stop) +
+                        ", before its start " + std::to_string(prev_end);
+        break;
+      }
+      p.polys.push_back({c, uint64_t(prev_end), uint64_t(stop)});
+      prev_end = stop;
+    }
+
+    // Pass 2, in parallel: each polyhedron's cell counts from its face sizes
+    // alone (decompose_polyhedron makes a pyramid of a quad, n - 2 tets of an
+    // n-gon), so that pass 3 writes every cell in its final place. A
+    // malformed stream counts what it can; pass 3 stops at it before writing
+    // anything of it.
+    uint64_t const npoly = p.polys.size();
+    p.tet_at.assign(npoly + 1, 0);
+    p.hex_at.assign(npoly + 1, 0);
+    for_poly_chunks(npoly, [&](tbb::blocked_range<uint64_t> const& r) {
+      for (uint64_t k = r.begin() * poly_grain, ke = std::min(npoly, r.end() * poly_grain); k < ke; ++k) {
+        uint64_t i = p.polys[k].begin, e = p.polys[k].end, nt = 0, nh = 0;
+        int64_t const nfaces = i < e ? faces.as_int(i++) : 0;
+        for (int64_t j = 0; j < nfaces && i < e; ++j) {
+          int64_t const n = faces.as_int(i);
+          if (n < 3 || uint64_t(n) >= e - i) break;
+          (n == 4 ? nh : nt) += n == 4 ? 1 : uint64_t(n - 2);
+          i += uint64_t(n) + 1;
+        }
+        p.tet_at[k + 1] = nt;
+        p.hex_at[k + 1] = nh;
+      }
+    });
+    for (uint64_t k = 0; k < npoly; ++k) {
+      p.tet_at[k + 1] += p.tet_at[k];
+      p.hex_at[k + 1] += p.hex_at[k];
+    }
+  }
+
+  static constexpr uint64_t poly_grain = 256;  // polyhedra per task
+  template <class F> static void for_poly_chunks(uint64_t npoly, F const& f) {
+    uint64_t const nchunks = (npoly + poly_grain - 1) / poly_grain;
+    tbb::blocked_range<uint64_t> const all(0, nchunks, 1);
+    if (nchunks <= 1) f(all);
+    else tbb::parallel_for(all, f);
+  }
+
+  void split_polyhedra(UnstructuredGrid& grid) {
+    if (plan_.failed) std::rethrow_exception(plan_.failed);
+    uint64_t const np = grid.vertex_count();
+    NumArray const& faces = plan_.faces;
+    std::vector<PolyRange> const& polys = plan_.polys;
     // Each polyhedron's cell-array values, in polyhedron order.
     std::vector<std::pair<std::string, std::vector<float>>> const& cell_values = polyhedra_values_;
     std::vector<CellArray*> cell_arrays;  // the array each entry of cell_values fills
@@ -716,62 +830,13 @@ class VtuParser {
         if (cell_values[v].first == grid.point_arrays[a].name) centre_from[a] = int(v);
     bool const need_means = std::find(centre_from.begin(), centre_from.end(), -1) != centre_from.end();
 
-    // Pass 1, in file order (cheap): each polyhedron's face stream. A
-    // faceoffsets error is kept, not thrown, so that an error in an earlier
-    // polyhedron's faces is still the one reported, as in a serial walk.
-    std::vector<PolyRange> polys;
-    std::string order_error;
-    int64_t prev_end = 0;
-    for (uint64_t c = 0; c < nc; ++c) {
-      int64_t const stop = face_offsets.as_int(c);
-      if (kinds[c] != 3) {
-        if (stop >= 0) prev_end = stop;
-        continue;
-      }
-      if (stop < prev_end) {
-        order_error = "faceoffsets: polyhedron cell " + std::to_string(c) + " ends at " + std::to_string(stop) +
-                      ", before its start " + std::to_string(prev_end);
-        break;
-      }
-      polys.push_back({c, uint64_t(prev_end), uint64_t(stop)});
-      prev_end = stop;
-    }
-
-    // Pass 2, in parallel: each polyhedron's cell counts from its face sizes
-    // alone (decompose_polyhedron makes a pyramid of a quad, n - 2 tets of an
-    // n-gon), so that pass 3 writes every cell in its final place in storage
-    // grown once (growing it per polyhedron cost ~15% of the flange's load in
-    // copies and first-write faults). A malformed stream counts what it can;
-    // pass 3 stops at it before writing anything of it.
     uint64_t const npoly = polys.size();
-    constexpr uint64_t grain = 256;
-    uint64_t const nchunks = (npoly + grain - 1) / grain;
-    tbb::blocked_range<uint64_t> const all(0, nchunks, 1);
-    auto for_chunks = [&](auto const& f) {
-      if (nchunks <= 1) f(all);
-      else tbb::parallel_for(all, f);
-    };
-    std::vector<uint64_t> tet_at(npoly + 1, 0), hex_at(npoly + 1, 0);  // counts, then prefix sums
-    for_chunks([&](tbb::blocked_range<uint64_t> const& r) {
-      for (uint64_t k = r.begin() * grain, ke = std::min(npoly, r.end() * grain); k < ke; ++k) {
-        uint64_t i = polys[k].begin, e = polys[k].end, nt = 0, nh = 0;
-        int64_t const nfaces = i < e ? faces.as_int(i++) : 0;
-        for (int64_t j = 0; j < nfaces && i < e; ++j) {
-          int64_t const n = faces.as_int(i);
-          if (n < 3 || uint64_t(n) >= e - i) break;
-          (n == 4 ? nh : nt) += n == 4 ? 1 : uint64_t(n - 2);
-          i += uint64_t(n) + 1;
-        }
-        tet_at[k + 1] = nt;
-        hex_at[k + 1] = nh;
-      }
-    });
-    tet_at[0] = grid.tet_count();
-    hex_at[0] = grid.hex_count();
-    for (uint64_t k = 0; k < npoly; ++k) {
-      tet_at[k + 1] += tet_at[k];
-      hex_at[k + 1] += hex_at[k];
-    }
+    uint64_t const nchunks = (npoly + poly_grain - 1) / poly_grain;
+    constexpr uint64_t grain = poly_grain;
+    uint64_t const tet0 = grid.tet_count(), hex0 = grid.hex_count();
+    std::vector<uint64_t> tet_at(plan_.tet_at), hex_at(plan_.hex_at);
+    for (uint64_t& t : tet_at) t += tet0;
+    for (uint64_t& h : hex_at) h += hex0;
     uint64_t const new_tets = tet_at[npoly] - tet_at[0], new_hexes = hex_at[npoly] - hex_at[0];
     cellray::detail::resize_zeroed(grid.tets, 4 * tet_at[npoly]);
     cellray::detail::resize_zeroed(grid.hexes, 8 * hex_at[npoly]);
@@ -798,7 +863,7 @@ class VtuParser {
     float* const xyz = grid.xyz.data();
     uint32_t* const tets = grid.tets.data();
     uint32_t* const hexes = grid.hexes.data();
-    for_chunks([&](tbb::blocked_range<uint64_t> const& r) {
+    for_poly_chunks(npoly, [&](tbb::blocked_range<uint64_t> const& r) {
       PolyhedronFaces f;
       std::vector<uint64_t> verts;
       for (uint64_t j = r.begin(); j < r.end(); ++j) {
@@ -847,19 +912,16 @@ class VtuParser {
     });
     for (ChunkError const& e : errors) {
       if (e.what.empty()) continue;
-      std::string const at = src_.at_line(offset(faces_el)) + "faces: ";
+      std::string const at = src_.at_line(offset(plan_faces_el_)) + "faces: ";
       if (e.what == too_many) throw IoError(at + "the polyhedra's centre points pass 2^32 - 1 vertices");
       throw IoError(at + "polyhedron cell " + std::to_string(polys[e.at].cell) + e.what);
     }
-    if (!order_error.empty()) src_.fail_line(offset(face_offsets_el), order_error);
+    if (!plan_.order_error.empty()) src_.fail_line(offset(plan_face_offsets_el_), plan_.order_error);
     grid.report.polyhedron_tets += new_tets;
     grid.report.polyhedron_pyramids += new_hexes;
     grid.report.polyhedra_split = npoly;
   }
 
-  struct PolyRange {
-    uint64_t cell, begin, end;  ///< file cell; its face stream is faces[begin, end)
-  };
   /// Polyhedron p's face stream [nfaces, n0, ids..., n1, ids...] into `f`;
   /// "" or what is wrong, to follow "polyhedron cell C".
   static std::string parse_polyhedron(NumArray const& faces, PolyRange const& p, PolyhedronFaces& f) {
