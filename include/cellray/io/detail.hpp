@@ -217,7 +217,10 @@ struct NumArray {
   bool swap = false;  ///< bytes are in the other byte order than the host's
   uint64_t count = 0;
   unsigned char const* data = nullptr;
-  std::vector<unsigned char> owned;
+  /// Decoded bytes: resize() leaves them unset (they are written next), and
+  /// large ones are huge pages (memory.hpp), so a decoded array costs no
+  /// zeroing pass and few first-write faults.
+  cellray::detail::LargeVector<unsigned char> owned;
 
   NumArray() = default;
   NumArray(NumArray&&) = default;
@@ -246,7 +249,7 @@ struct NumArray {
     return a;
   }
   /// Takes ownership of decoded bytes.
-  static NumArray owning_bytes(NumType type, uint64_t count, std::vector<unsigned char> bytes, bool swap) {
+  static NumArray owning_bytes(NumType type, uint64_t count, cellray::detail::LargeVector<unsigned char> bytes, bool swap) {
     NumArray a;
     a.type = type;
     a.count = count;
@@ -738,9 +741,11 @@ inline std::string describe_array(char const* where, std::string const& name, in
   return s;
 }
 
-/// The values of a point array of `npoints` tuples, one per vertex (tuple_value).
-inline std::vector<float> point_values(NumArray const& a, int ncomp, uint64_t npoints) {
+/// The values of a point array of `npoints` tuples, one per vertex
+/// (tuple_value), with room for `spare` more (vertices a reader adds later).
+inline std::vector<float> point_values(NumArray const& a, int ncomp, uint64_t npoints, uint64_t spare = 0) {
   std::vector<float> v;
+  if (spare) v.reserve(npoints + spare);
   cellray::detail::resize_zeroed(v, npoints);
   convert_tuples(a, ncomp, v);
   return v;
@@ -760,17 +765,20 @@ inline void add_point_array(UnstructuredGrid& grid, std::string name, std::vecto
   grid.point_arrays.push_back(std::move(p));
 }
 
-/// Adds a point array of `tuples` = vertex count tuples (checked by the caller).
-inline void add_point_array(UnstructuredGrid& grid, std::string name, NumArray const& a, int ncomp) {
+/// Adds a point array of `tuples` = vertex count tuples (checked by the
+/// caller), with room for `spare` more values.
+inline void add_point_array(UnstructuredGrid& grid, std::string name, NumArray const& a, int ncomp, uint64_t spare = 0) {
   std::vector<float> values;
-  if (!grid.point_array(name)) values = point_values(a, ncomp, grid.vertex_count());
+  if (!grid.point_array(name)) values = point_values(a, ncomp, grid.vertex_count(), spare);
   add_point_array(grid, std::move(name), std::move(values), ncomp);
 }
 
 /// Adds a cell array with one tuple per file cell, split by `kinds`; the
-/// values of polyhedra (kind 3) go to `polyhedra_values` when given.
+/// values of polyhedra (kind 3) go to `polyhedra_values` when given, and
+/// the tet and hex values get room for `spare_tets` / `spare_hexes` more.
 inline void add_cell_array(UnstructuredGrid& grid, std::string name, NumArray const& a, int ncomp, CellKinds const& kinds,
-                           std::vector<float>* polyhedra_values = nullptr) {
+                           std::vector<float>* polyhedra_values = nullptr, uint64_t spare_tets = 0,
+                           uint64_t spare_hexes = 0) {
   if (grid.cell_array(name)) {
     grid.report.arrays_ignored.push_back("cell '" + name + "' (a second cell array with that name)");
     return;
@@ -784,8 +792,8 @@ inline void add_cell_array(UnstructuredGrid& grid, std::string name, NumArray co
     cellray::detail::resize_zeroed(out, kinds.size());
     convert_tuples(a, ncomp, out);
   } else {
-    c.tet_values.reserve(grid.tet_count());
-    c.hex_values.reserve(grid.hex_count());
+    c.tet_values.reserve(grid.tet_count() + spare_tets);
+    c.hex_values.reserve(grid.hex_count() + spare_hexes);
     with_doubles(a, [&](auto const get) {
       for (uint64_t i = 0; i < kinds.size(); ++i) {
         if (kinds[i] == 0) c.tet_values.push_back(tuple_value(get, i, ncomp));

@@ -6,6 +6,8 @@
 // XML parser (it is not XML): the document is cut at the '_' marker.
 // Needs pugixml and zlib at link time (CMake: pugixml::pugixml ZLIB::ZLIB).
 
+#include <cassert>
+#include <exception>
 #include <cstdint>
 #include <set>
 #include <string>
@@ -41,6 +43,58 @@ struct Base64Table {
 };
 inline constexpr Base64Table base64_table{};
 
+/// Per position in a 4-symbol group, the symbol's 6 bits in place, or bit 24
+/// for anything else (whitespace, '=', invalid): one OR per group tells
+/// whether the fast path may decode it.
+struct Base64Bits {
+  uint32_t bits[4][256];
+  constexpr Base64Bits() : bits() {
+    for (int c = 0; c < 256; ++c) {
+      unsigned const k = base64_table.cls[c];
+      for (int i = 0; i < 4; ++i) bits[i][c] = k < 64 ? uint32_t(k) << (18 - 6 * i) : uint32_t(1) << 24;
+    }
+  }
+};
+inline constexpr Base64Bits base64_bits{};
+
+/// Decodes up to `q` 4-symbol groups of plain symbols at `text` into 3 bytes
+/// each at `out`; stops at the first group holding anything else (the
+/// careful path takes over there). Returns the groups decoded.
+inline uint64_t base64_decode_plain_serial(unsigned char const* text, uint64_t q, unsigned char* out) {
+  auto const& t = base64_bits.bits;
+  for (uint64_t i = 0; i < q; ++i, text += 4, out += 3) {
+    uint32_t const v = t[0][text[0]] | t[1][text[1]] | t[2][text[2]] | t[3][text[3]];
+    if (v >> 24) return i;
+    out[0] = static_cast<unsigned char>(v >> 16);
+    out[1] = static_cast<unsigned char>(v >> 8);
+    out[2] = static_cast<unsigned char>(v);
+  }
+  return q;
+}
+
+/// base64_decode_plain_serial, in parallel for long runs (an 11 MB inline
+/// array decodes at ~1 GB/s per thread). Chunks past the first one that
+/// stops early are decoded for nothing; their bytes are rewritten by the
+/// caller's careful path, which starts where the plain run ends.
+inline uint64_t base64_decode_plain(unsigned char const* text, uint64_t q, unsigned char* out) {
+  constexpr uint64_t chunk = uint64_t(1) << 16;  // groups per task: 192 KB of output
+  if (q < 2 * chunk) return base64_decode_plain_serial(text, q, out);
+  uint64_t const nchunks = (q + chunk - 1) / chunk;
+  std::vector<uint64_t> done(nchunks);
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nchunks, 1), [&](tbb::blocked_range<uint64_t> const& r) {
+    for (uint64_t j = r.begin(); j < r.end(); ++j) {
+      uint64_t const b = j * chunk, n = std::min(q, b + chunk) - b;
+      done[j] = base64_decode_plain_serial(text + 4 * b, n, out + 3 * b);
+    }
+  });
+  uint64_t total = 0;
+  for (uint64_t j = 0; j < nchunks; ++j) {
+    total += done[j];
+    if (done[j] < std::min(q, (j + 1) * chunk) - j * chunk) break;
+  }
+  return total;
+}
+
 /// Bytes of a DataArray payload: raw bytes of the file, or base64 text in it.
 /// The base64 decoder accepts several padded streams back to back, because
 /// VTK encodes a compressed array's header and its blocks separately.
@@ -75,20 +129,15 @@ class ByteStream {
         --n;
         continue;
       }
-      if (n >= 3 && end_ - pos_ >= 4) {
-        // Fast path: four plain symbols straight to the output.
-        unsigned const a = base64_table.cls[text[pos_]], b = base64_table.cls[text[pos_ + 1]],
-                       c = base64_table.cls[text[pos_ + 2]], d = base64_table.cls[text[pos_ + 3]];
-        if ((a | b | c | d) < 64) {
-          uint32_t const bits = (a << 18) | (b << 12) | (c << 6) | d;
-          out[0] = static_cast<unsigned char>(bits >> 16);
-          out[1] = static_cast<unsigned char>(bits >> 8);
-          out[2] = static_cast<unsigned char>(bits);
-          out += 3;
-          n -= 3;
-          pos_ += 4;
-          continue;
-        }
+      if (n >= 3) {
+        // Plain symbols (no whitespace or padding) go straight to the output,
+        // as many whole groups as possible at once.
+        uint64_t const q = std::min(n / 3, (end_ - pos_) / 4);
+        uint64_t const done = base64_decode_plain(text + pos_, q, out);
+        pos_ += 4 * done;
+        out += 3 * done;
+        n -= 3 * done;
+        if (done > 0) continue;
       }
       quantum();
     }
@@ -163,7 +212,7 @@ constexpr uint64_t zlib_max_ratio = 1032;
 /// to `out`, growing it 1 MiB at a time as the stream produces them. Returns
 /// "" on success, else what went wrong (the stream is corrupt, ends early or
 /// holds more than `want` bytes); `out` may then hold part of the block.
-inline std::string inflate_append(unsigned char const* z, uint64_t zsize, uint64_t want, std::vector<unsigned char>& out) {
+inline std::string inflate_append(unsigned char const* z, uint64_t zsize, uint64_t want, cellray::detail::LargeVector<unsigned char>& out) {
   constexpr uint64_t grow = uint64_t(1) << 20;
   constexpr uint64_t max_feed = std::numeric_limits<uInt>::max();
   z_stream zs{};
@@ -211,6 +260,57 @@ inline std::string inflate_append(unsigned char const* z, uint64_t zsize, uint64
   }
   inflateEnd(&zs);
   return err;
+}
+
+/// `xml` with the inline text of every DataArray element replaced by one
+/// 'x', into `out`: that text (base64 or numbers) is nearly all of a file
+/// with inline data, and handing it to pugixml cost a copy into fresh memory
+/// plus a character scan (~20% of the 11 MB flange's load). The readers take
+/// array text from the file itself (the PCDATA node only locates it). Text
+/// that is blank, holds a NUL byte or runs to the end is kept, so pugixml
+/// sees the same nodes and reports the same errors at the same places. `shifts` maps offsets back: from out offset `first` on, the
+/// file offset is offset + `second` (sorted by `first`).
+inline void xml_skeleton(std::string_view xml, std::string& out, std::vector<std::pair<uint64_t, uint64_t>>& shifts) {
+  out.clear();
+  shifts.clear();
+  size_t const size = xml.size(), npos = std::string_view::npos;
+  size_t copied = 0, i = 0;
+  auto skip_to = [&](size_t from, std::string_view end_mark) {
+    size_t const e = xml.find(end_mark, from);
+    return e == npos ? npos : e + end_mark.size();
+  };
+  while ((i = xml.find('<', i)) != npos) {
+    std::string_view const rest = xml.substr(i);
+    if (rest.substr(0, 4) == "<!--") i = skip_to(i + 4, "-->");
+    else if (rest.substr(0, 9) == "<![CDATA[") i = skip_to(i + 9, "]]>");
+    else if (rest.substr(0, 2) == "<?") i = skip_to(i + 2, "?>");
+    else if (rest.size() > 10 && rest.substr(0, 10) == "<DataArray" &&
+             (is_space(rest[10]) || rest[10] == '>' || rest[10] == '/')) {
+      size_t j = i + 10;  // the start tag's '>', outside quoted attribute values
+      for (char q = 0; j < size; ++j) {
+        char const c = xml[j];
+        if (q) q = c == q ? 0 : q;
+        else if (c == '"' || c == '\'') q = c;
+        else if (c == '>') break;
+      }
+      if (j >= size) break;
+      size_t const t = j + 1;
+      size_t const lt = xml.find('<', t);
+      if (lt == npos) break;  // text up to the end: pugixml's error points into it
+      i = lt;
+      if (xml[j - 1] == '/' || lt - t < 2) continue;
+      size_t first = t;
+      while (first < lt && is_space(xml[first])) ++first;
+      if (first == lt || std::memchr(xml.data() + t, 0, lt - t)) continue;
+      out.append(xml.substr(copied, t - copied));
+      out += 'x';
+      shifts.emplace_back(out.size(), lt - out.size());
+      copied = lt;
+      continue;
+    } else ++i;
+    if (i == npos) break;
+  }
+  out.append(xml.substr(copied));
 }
 
 /// Parser state for one .vtu document. Internal: use read_vtu*().
@@ -294,10 +394,36 @@ class VtuParser {
     }
     NumArray const conn = decode(conn_el, uint64_t(prev), "connectivity");
     NumArray const types = decode(type_el, nc, "types");
+    pugi::xml_node const faces_el = optional_named(cells, "faces"), face_offsets_el = optional_named(cells, "faceoffsets");
+    uint64_t file_tets = 0, file_hexes = 0, npoly = 0;  // upper bounds, for reserving storage
+    with_ints(types, [&](auto const type_of) {
+      for (uint64_t c = 0; c < nc; ++c) {
+        uint64_t nodes;
+        bool exact;
+        CellKind const k = classify_cell(type_of(c), nodes, exact);
+        file_tets += k == CellKind::tet;
+        file_hexes += k == CellKind::hex || k == CellKind::voxel;
+        npoly += k == CellKind::polyhedron;
+      }
+    });
+    if (npoly) {
+      plan_faces_el_ = faces_el;
+      plan_face_offsets_el_ = face_offsets_el;
+      try {
+        plan_polyhedra(types, faces_el, face_offsets_el, cells);
+      } catch (IoError const&) {
+        plan_.failed = std::current_exception();
+      }
+      if (!plan_.failed) {
+        grid.tets.reserve(4 * (file_tets + plan_.tet_at.back()));
+        grid.hexes.reserve(8 * (file_hexes + plan_.hex_at.back()));
+        grid.xyz.reserve(3 * (np + plan_.polys.size()));
+        poly_spare_ = Spare{plan_.polys.size(), plan_.tet_at.back(), plan_.hex_at.back()};
+      }
+    }
     CellLocator where;
     where.conn = [&](uint64_t) { return src_.at_line(offset(conn_el)) + "connectivity: "; };
     where.type = [&](uint64_t) { return src_.at_line(offset(type_el)) + "types: "; };
-    pugi::xml_node const faces_el = optional_named(cells, "faces"), face_offsets_el = optional_named(cells, "faceoffsets");
     CellKinds const kinds = build_cells(
         nc, types, conn,
         [&offsets](uint64_t c) {
@@ -309,7 +435,7 @@ class VtuParser {
     for (pugi::xml_node a : piece.child("PointData").children()) array(grid, a, np, false, kinds);
     for (pugi::xml_node a : piece.child("CellData").children()) array(grid, a, nc, true, kinds);
     if (std::find(kinds.begin(), kinds.end(), uint8_t(3)) != kinds.end())
-      split_polyhedra(grid, kinds, faces_el, face_offsets_el, cells);
+      split_polyhedra(grid);
     for (pugi::xml_node a : ug.child("FieldData").children())
       grid.report.arrays_ignored.push_back("field " + in_quotes(a.attribute("Name").value()) + " (dataset field data)");
 
@@ -325,15 +451,33 @@ class VtuParser {
   Source const& src_;
   ReadOptions opts_;
   pugi::xml_document doc_;
-  std::string xml_;
+  std::string xml_;                                     // what pugixml parses (xml_skeleton)
+  std::vector<std::pair<uint64_t, uint64_t>> shifts_;  // xml_skeleton's offset map
   bool appended_ = false, appended_base64_ = false, compressed_ = false, big_endian_ = false, swap_ = false;
   uint64_t appended_base_ = 0, appended_end_ = 0, header_size_ = 4;
   std::set<std::string> formats_;
   std::vector<std::pair<std::string, std::vector<float>>> polyhedra_values_;  // per cell array
+  // Decoded base64 arrays, one after another in one buffer sized for all of
+  // them (3 bytes per 4 of file): it is huge pages from 4 MB (memory.hpp),
+  // where a buffer per array cost ~2,000 first-write faults of 4 KB (~30 ms)
+  // on the 11 MB flange. Only what is decoded is ever touched. The arrays
+  // viewing it live no longer than the parser.
+  cellray::detail::LargeVector<unsigned char> arena_;
+  uint64_t arena_used_ = 0;
+
+  /// `n` bytes of arena_, 64-byte aligned, or null when they do not fit (an
+  /// appended array decoded twice, or inflated data).
+  unsigned char* arena_take(uint64_t n) {
+    if (arena_.empty()) arena_.resize(src_.bytes.size() / 4 * 3 + 64);  // unset, untouched
+    uint64_t const at = (arena_used_ + 63) & ~uint64_t(63);
+    if (at > arena_.size() || n > arena_.size() - at) return nullptr;
+    arena_used_ = at + n;
+    return arena_.data() + at;
+  }
 
   uint64_t offset(pugi::xml_node n) const {
     ptrdiff_t const o = n.offset_debug();
-    return o < 0 ? 0 : uint64_t(o);
+    return o < 0 ? 0 : file_offset(uint64_t(o));
   }
 
   /// Raw appended data is binary, not XML: parse only the document up to
@@ -352,14 +496,19 @@ class VtuParser {
         appended_ = true;
         appended_base_ = u + 1;
         appended_end_ = b.size();
-        xml_.reserve(gt + 40);
-        xml_.assign(b.substr(0, gt + 1));
-        xml_ += "</AppendedData></VTKFile>";
-        xml = xml_;
+        xml = b.substr(0, gt + 1);
       }
     }
-    pugi::xml_parse_result const r = doc_.load_buffer(xml.data(), xml.size(), pugi::parse_default, pugi::encoding_utf8);
-    if (!r) src_.fail_line(uint64_t(std::max<ptrdiff_t>(r.offset, 0)), std::string("XML error: ") + r.description());
+    xml_skeleton(xml, xml_, shifts_);
+    if (appended_) xml_ += "</AppendedData></VTKFile>";
+    pugi::xml_parse_result const r = doc_.load_buffer(xml_.data(), xml_.size(), pugi::parse_default, pugi::encoding_utf8);
+    if (!r) src_.fail_line(file_offset(uint64_t(std::max<ptrdiff_t>(r.offset, 0))), std::string("XML error: ") + r.description());
+  }
+
+  /// The file offset of offset `o` in xml_ (see xml_skeleton).
+  uint64_t file_offset(uint64_t o) const {
+    auto const it = std::upper_bound(shifts_.begin(), shifts_.end(), std::pair<uint64_t, uint64_t>(o, ~uint64_t(0)));
+    return it == shifts_.begin() ? o : o + std::prev(it)->second;
   }
 
   uint64_t count_attr(pugi::xml_node n, char const* name) const {
@@ -481,7 +630,11 @@ class VtuParser {
         src_.fail_byte(s.offset(), what + ": " + std::to_string(bytes) + " bytes declared but at most " +
                                        std::to_string(s.max_left()) + " are left");
       if (!s.base64()) return NumArray::viewing(t, bytes / esize, s.raw(bytes), swap_);
-      std::vector<unsigned char> out(bytes);
+      if (unsigned char* const p = arena_take(bytes)) {
+        s.read(p, bytes);
+        return NumArray::viewing(t, bytes / esize, p, swap_);
+      }
+      cellray::detail::LargeVector<unsigned char> out(bytes);
       s.read(out.data(), bytes);
       return NumArray::owning_bytes(t, bytes / esize, std::move(out), swap_);
     }
@@ -509,7 +662,8 @@ class VtuParser {
                                 " compressed bytes (corrupt header)");
     // The output grows only as blocks inflate: a header's claim allocates
     // nothing until compressed data backs it (VTK's header is not a promise).
-    std::vector<unsigned char> out, tmp;
+    cellray::detail::LargeVector<unsigned char> out;
+    std::vector<unsigned char> tmp;
     out.reserve(size_t(std::min(total, 8 * ctotal + (uint64_t(1) << 20))));
     for (uint64_t i = 0; i < nblocks; ++i) {
       uint64_t const here = s.offset();
@@ -552,10 +706,10 @@ class VtuParser {
     if (cell) {
       std::vector<float> poly;
       size_t const before = grid.cell_arrays.size();
-      add_cell_array(grid, name, data, ncomp, kinds, &poly);
+      add_cell_array(grid, name, data, ncomp, kinds, &poly, poly_spare_.tets, poly_spare_.hexes);
       if (grid.cell_arrays.size() > before) polyhedra_values_.emplace_back(name, std::move(poly));  // not a duplicate name
     } else {
-      add_point_array(grid, std::move(name), data, ncomp);
+      add_point_array(grid, std::move(name), data, ncomp, poly_spare_.points);
     }
   }
 
@@ -566,98 +720,236 @@ class VtuParser {
   /// polyhedron's own value when a cell array has the same name (foamToVTK:
   /// the cell's value at the cell centre), else the mean of its vertices.
   /// The new cells carry the polyhedron's cell-array values.
-  void split_polyhedra(UnstructuredGrid& grid, CellKinds const& kinds, pugi::xml_node faces_el,
-                       pugi::xml_node face_offsets_el, pugi::xml_node cells) {
+  /// Passes 1 and 2 of the polyhedra split, run before any cell is stored:
+  /// the cells' storage is then reserved once for the file's cells and the
+  /// polyhedra's (growing it after the file's cells cost a copy and the
+  /// first-write faults of the first buffer, ~15% of the flange's load). Its
+  /// errors are kept in `failed` and thrown by split_polyhedra, so errors
+  /// come in the order they always did.
+  struct PolyRange {
+    uint64_t cell, begin, end;  ///< file cell; its face stream is faces[begin, end)
+  };
+  struct PolyPlan {
+    NumArray faces, face_offsets;
+    std::vector<PolyRange> polys;                // the polyhedra in file order, up to order_error
+    std::string order_error;                     // a faceoffsets error after polys
+    std::vector<uint64_t> tet_at, hex_at;        // polyhedron k's first new tet / hex (prefix sums)
+    std::exception_ptr failed;
+  };
+  PolyPlan plan_;
+  pugi::xml_node plan_faces_el_, plan_face_offsets_el_;
+  struct Spare {
+    uint64_t points = 0, tets = 0, hexes = 0;
+  };
+  Spare poly_spare_;  // what the polyhedra add: room reserved in the arrays read before the split
+
+  void plan_polyhedra(NumArray const& types, pugi::xml_node faces_el, pugi::xml_node face_offsets_el, pugi::xml_node cells) {
     if (!faces_el || !face_offsets_el)
       src_.fail_line(offset(cells), "polyhedra (VTK type 42) need the DataArrays 'faces' and 'faceoffsets'");
-    uint64_t const nc = kinds.size(), np = grid.vertex_count();
-    NumArray const face_offsets = decode(face_offsets_el, nc, "faceoffsets");
+    uint64_t const nc = types.count;
+    PolyPlan& p = plan_;
+    p.face_offsets = decode(face_offsets_el, nc, "faceoffsets");
+    NumArray const& face_offsets = p.face_offsets;
     int64_t end = 0;
     for (uint64_t c = 0; c < nc; ++c) end = std::max(end, face_offsets.as_int(c));
-    NumArray const faces = decode(faces_el, uint64_t(end), "faces");
-    std::string const at = src_.at_line(offset(faces_el)) + "faces: ";
+    p.faces = decode(faces_el, uint64_t(end), "faces");
+    NumArray const& faces = p.faces;
+
+    // Pass 1, in file order (cheap): each polyhedron's face stream. A
+    // faceoffsets error is kept, not thrown, so that an error in an earlier
+    // polyhedron's faces is still the one reported, as in a serial walk.
+    // Polyhedra are the cells of type 42 (build_cells' kind 3).
+    int64_t prev_end = 0;
+    for (uint64_t c = 0; c < nc; ++c) {
+      int64_t const stop = face_offsets.as_int(c);
+      if (types.as_int(c) != 42) {
+        if (stop >= 0) prev_end = stop;
+        continue;
+      }
+      if (stop < prev_end) {
+        p.order_error = "faceoffsets: polyhedron cell " + std::to_string(c) + " ends at " + std::to_string(stop) +
+                        ", before its start " + std::to_string(prev_end);
+        break;
+      }
+      p.polys.push_back({c, uint64_t(prev_end), uint64_t(stop)});
+      prev_end = stop;
+    }
+
+    // Pass 2, in parallel: each polyhedron's cell counts from its face sizes
+    // alone (decompose_polyhedron makes a pyramid of a quad, n - 2 tets of an
+    // n-gon), so that pass 3 writes every cell in its final place. A
+    // malformed stream counts what it can; pass 3 stops at it before writing
+    // anything of it.
+    uint64_t const npoly = p.polys.size();
+    p.tet_at.assign(npoly + 1, 0);
+    p.hex_at.assign(npoly + 1, 0);
+    for_poly_chunks(npoly, [&](tbb::blocked_range<uint64_t> const& r) {
+      for (uint64_t k = r.begin() * poly_grain, ke = std::min(npoly, r.end() * poly_grain); k < ke; ++k) {
+        uint64_t i = p.polys[k].begin, e = p.polys[k].end, nt = 0, nh = 0;
+        int64_t const nfaces = i < e ? faces.as_int(i++) : 0;
+        for (int64_t j = 0; j < nfaces && i < e; ++j) {
+          int64_t const n = faces.as_int(i);
+          if (n < 3 || uint64_t(n) >= e - i) break;
+          (n == 4 ? nh : nt) += n == 4 ? 1 : uint64_t(n - 2);
+          i += uint64_t(n) + 1;
+        }
+        p.tet_at[k + 1] = nt;
+        p.hex_at[k + 1] = nh;
+      }
+    });
+    for (uint64_t k = 0; k < npoly; ++k) {
+      p.tet_at[k + 1] += p.tet_at[k];
+      p.hex_at[k + 1] += p.hex_at[k];
+    }
+  }
+
+  static constexpr uint64_t poly_grain = 256;  // polyhedra per task
+  template <class F> static void for_poly_chunks(uint64_t npoly, F const& f) {
+    uint64_t const nchunks = (npoly + poly_grain - 1) / poly_grain;
+    tbb::blocked_range<uint64_t> const all(0, nchunks, 1);
+    if (nchunks <= 1) f(all);
+    else tbb::parallel_for(all, f);
+  }
+
+  void split_polyhedra(UnstructuredGrid& grid) {
+    if (plan_.failed) std::rethrow_exception(plan_.failed);
+    uint64_t const np = grid.vertex_count();
+    NumArray const& faces = plan_.faces;
+    std::vector<PolyRange> const& polys = plan_.polys;
     // Each polyhedron's cell-array values, in polyhedron order.
     std::vector<std::pair<std::string, std::vector<float>>> const& cell_values = polyhedra_values_;
-    std::vector<float> centre_xyz;
-    std::vector<std::vector<float>> centre_values(grid.point_arrays.size());
     std::vector<CellArray*> cell_arrays;  // the array each entry of cell_values fills
     for (auto const& cv : cell_values)
       for (auto& a : grid.cell_arrays)
         if (a.name == cv.first) cell_arrays.push_back(&a);
-    uint64_t k = 0;  // polyhedron index
-    int64_t prev_end = 0;
-    PolyhedronFaces f;
-    for (uint64_t c = 0; c < nc; ++c) {
-      int64_t const stop = face_offsets.as_int(c);
-      if (kinds[c] != 3) {
-        if (stop >= 0) prev_end = stop;
-        continue;
-      }
-      if (stop < prev_end)
-        src_.fail_line(offset(face_offsets_el), "faceoffsets: polyhedron cell " + std::to_string(c) + " ends at " +
-                                                    std::to_string(stop) + ", before its start " + std::to_string(prev_end));
-      // [nfaces, n0, ids..., n1, ids...] in faces[prev_end, stop)
-      uint64_t i = uint64_t(prev_end);
-      auto next = [&]() -> int64_t {
-        if (i >= uint64_t(stop))
-          throw IoError(at + "polyhedron cell " + std::to_string(c) + ": its face stream ends early");
-        return faces.as_int(i++);
-      };
-      int64_t const nfaces = next();
-      if (nfaces < 4 || nfaces > stop - prev_end)
-        throw IoError(at + "polyhedron cell " + std::to_string(c) + " declares " + std::to_string(nfaces) + " faces");
-      f.ids.clear();
-      f.offsets.assign(1, 0);
-      for (int64_t j = 0; j < nfaces; ++j) {
-        int64_t const n = next();
-        if (n < 3 || n > stop - int64_t(i))
-          throw IoError(at + "polyhedron cell " + std::to_string(c) + ": face " + std::to_string(j) + " declares " +
-                        std::to_string(n) + " vertices");
-        for (int64_t q = 0; q < n; ++q) f.ids.push_back(uint64_t(next()));  // negative: huge, caught below
-        f.offsets.push_back(f.ids.size());
-      }
-      if (std::string const bad = check_polyhedron(f, np); !bad.empty())
-        throw IoError(at + "polyhedron cell " + std::to_string(c) + " " + bad);
-      uint64_t const centre = np + k;
-      if (centre > std::numeric_limits<uint32_t>::max())
-        throw IoError(at + "the polyhedra's centre points pass 2^32 - 1 vertices");
-      PolyhedronSplit const split = decompose_polyhedron(f, grid.xyz.data(), centre);
-      for (int a = 0; a < 3; ++a) centre_xyz.push_back(float(split.centre[a]));
-      std::vector<uint64_t> verts(f.ids);
-      std::sort(verts.begin(), verts.end());
-      verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-      for (size_t a = 0; a < grid.point_arrays.size(); ++a) {
-        PointArray const& pa = grid.point_arrays[a];
-        float value = 0;
-        bool from_cell = false;
-        for (auto const& [name, values] : cell_values)
-          if (name == pa.name) value = values[k], from_cell = true;
-        if (!from_cell) {
-          double sum = 0;
-          for (uint64_t v : verts) sum += pa.values[v];
-          value = float(sum / double(verts.size()));
-        }
-        centre_values[a].push_back(value);
-      }
-      for (auto const& t : split.tets)
-        for (uint64_t v : t) grid.tets.push_back(uint32_t(v));
-      for (auto const& h : split.hexes)
-        for (uint64_t v : h) grid.hexes.push_back(uint32_t(v));
-      for (size_t a = 0; a < cell_arrays.size(); ++a) {
-        float const v = cell_values[a].second[k];
-        cell_arrays[a]->tet_values.insert(cell_arrays[a]->tet_values.end(), split.tets.size(), v);
-        cell_arrays[a]->hex_values.insert(cell_arrays[a]->hex_values.end(), split.hexes.size(), v);
-      }
-      grid.report.polyhedron_tets += split.tets.size();
-      grid.report.polyhedron_pyramids += split.hexes.size();
-      ++k;
-      prev_end = stop;
-    }
-    grid.report.polyhedra_split = k;
-    grid.xyz.insert(grid.xyz.end(), centre_xyz.begin(), centre_xyz.end());
+    // A point array's centre value: the same-named cell array's (its index in
+    // cell_values), else -1 for the mean of the polyhedron's vertices.
+    std::vector<int> centre_from(grid.point_arrays.size(), -1);
     for (size_t a = 0; a < grid.point_arrays.size(); ++a)
-      grid.point_arrays[a].values.insert(grid.point_arrays[a].values.end(), centre_values[a].begin(),
-                                         centre_values[a].end());
+      for (size_t v = 0; v < cell_values.size(); ++v)
+        if (cell_values[v].first == grid.point_arrays[a].name) centre_from[a] = int(v);
+    bool const need_means = std::find(centre_from.begin(), centre_from.end(), -1) != centre_from.end();
+
+    uint64_t const npoly = polys.size();
+    uint64_t const nchunks = (npoly + poly_grain - 1) / poly_grain;
+    constexpr uint64_t grain = poly_grain;
+    uint64_t const tet0 = grid.tet_count(), hex0 = grid.hex_count();
+    std::vector<uint64_t> tet_at(plan_.tet_at), hex_at(plan_.hex_at);
+    for (uint64_t& t : tet_at) t += tet0;
+    for (uint64_t& h : hex_at) h += hex0;
+    uint64_t const new_tets = tet_at[npoly] - tet_at[0], new_hexes = hex_at[npoly] - hex_at[0];
+    cellray::detail::resize_zeroed(grid.tets, 4 * tet_at[npoly]);
+    cellray::detail::resize_zeroed(grid.hexes, 8 * hex_at[npoly]);
+    cellray::detail::resize_zeroed(grid.xyz, 3 * (np + npoly));
+    for (auto& pa : grid.point_arrays) cellray::detail::resize_zeroed(pa.values, np + npoly);
+    std::vector<float*> value_tets(cell_arrays.size()), value_hexes(cell_arrays.size());  // where new values go
+    for (size_t a = 0; a < cell_arrays.size(); ++a) {
+      uint64_t const t0 = cell_arrays[a]->tet_values.size(), h0 = cell_arrays[a]->hex_values.size();
+      cellray::detail::resize_zeroed(cell_arrays[a]->tet_values, t0 + new_tets);
+      cellray::detail::resize_zeroed(cell_arrays[a]->hex_values, h0 + new_hexes);
+      value_tets[a] = cell_arrays[a]->tet_values.data() + t0 - tet_at[0];
+      value_hexes[a] = cell_arrays[a]->hex_values.data() + h0 - hex_at[0];
+    }
+
+    // Pass 3, in parallel (each polyhedron is independent; check and
+    // decompose were ~15% of the load when serial): polyhedron k's cells,
+    // centre point (vertex np + k) and values go straight to their place.
+    struct ChunkError {
+      uint64_t at = ~uint64_t(0);  // polyhedron index of the chunk's first error
+      std::string what;
+    };
+    std::vector<ChunkError> errors(nchunks);
+    static char const* const too_many = "(centre ids pass 2^32 - 1)";  // worded below
+    float* const xyz = grid.xyz.data();
+    uint32_t* const tets = grid.tets.data();
+    uint32_t* const hexes = grid.hexes.data();
+    for_poly_chunks(npoly, [&](tbb::blocked_range<uint64_t> const& r) {
+      PolyhedronFaces f;
+      std::vector<uint64_t> verts;
+      for (uint64_t j = r.begin(); j < r.end(); ++j) {
+        for (uint64_t k = j * grain, ke = std::min(npoly, k + grain); k < ke; ++k) {
+          std::string err = parse_polyhedron(faces, polys[k], f);
+          if (err.empty())
+            if (std::string const bad = check_polyhedron(f, np); !bad.empty()) err = " " + bad;
+          if (err.empty() && np + k > std::numeric_limits<uint32_t>::max()) err = too_many;
+          if (!err.empty()) {
+            errors[j] = {k, std::move(err)};
+            break;
+          }
+          PolyhedronSplit const split = decompose_polyhedron(f, xyz, np + k);
+          assert(split.tets.size() == tet_at[k + 1] - tet_at[k] && split.hexes.size() == hex_at[k + 1] - hex_at[k]);
+          for (int a = 0; a < 3; ++a) xyz[3 * (np + k) + uint64_t(a)] = float(split.centre[a]);
+          if (need_means) {
+            verts.assign(f.ids.begin(), f.ids.end());
+            std::sort(verts.begin(), verts.end());
+            verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+          }
+          for (size_t a = 0; a < grid.point_arrays.size(); ++a) {
+            float value;
+            if (centre_from[a] >= 0) {
+              value = cell_values[size_t(centre_from[a])].second[k];
+            } else {
+              std::vector<float> const& pv = grid.point_arrays[a].values;
+              double sum = 0;
+              for (uint64_t v : verts) sum += pv[v];
+              value = float(sum / double(verts.size()));
+            }
+            grid.point_arrays[a].values[np + k] = value;
+          }
+          uint32_t* t = tets + 4 * tet_at[k];
+          for (auto const& c : split.tets)
+            for (uint64_t v : c) *t++ = uint32_t(v);
+          uint32_t* h = hexes + 8 * hex_at[k];
+          for (auto const& c : split.hexes)
+            for (uint64_t v : c) *h++ = uint32_t(v);
+          for (size_t a = 0; a < cell_arrays.size(); ++a) {
+            float const v = cell_values[a].second[k];
+            std::fill(value_tets[a] + tet_at[k], value_tets[a] + tet_at[k + 1], v);
+            std::fill(value_hexes[a] + hex_at[k], value_hexes[a] + hex_at[k + 1], v);
+          }
+        }
+      }
+    });
+    for (ChunkError const& e : errors) {
+      if (e.what.empty()) continue;
+      std::string const at = src_.at_line(offset(plan_faces_el_)) + "faces: ";
+      if (e.what == too_many) throw IoError(at + "the polyhedra's centre points pass 2^32 - 1 vertices");
+      throw IoError(at + "polyhedron cell " + std::to_string(polys[e.at].cell) + e.what);
+    }
+    if (!plan_.order_error.empty()) src_.fail_line(offset(plan_face_offsets_el_), plan_.order_error);
+    grid.report.polyhedron_tets += new_tets;
+    grid.report.polyhedron_pyramids += new_hexes;
+    grid.report.polyhedra_split = npoly;
+  }
+
+  /// Polyhedron p's face stream [nfaces, n0, ids..., n1, ids...] into `f`;
+  /// "" or what is wrong, to follow "polyhedron cell C".
+  static std::string parse_polyhedron(NumArray const& faces, PolyRange const& p, PolyhedronFaces& f) {
+    int64_t const stop = int64_t(p.end);
+    uint64_t i = p.begin;
+    bool ended = false;
+    auto next = [&]() -> int64_t {
+      if (i >= uint64_t(stop)) {
+        ended = true;
+        return 0;
+      }
+      return faces.as_int(i++);
+    };
+    static char const* const early = ": its face stream ends early";
+    int64_t const nfaces = next();
+    if (ended) return early;
+    if (nfaces < 4 || nfaces > stop - int64_t(p.begin)) return " declares " + std::to_string(nfaces) + " faces";
+    f.ids.clear();
+    f.offsets.assign(1, 0);
+    for (int64_t j = 0; j < nfaces; ++j) {
+      int64_t const n = next();
+      if (ended) return early;
+      if (n < 3 || n > stop - int64_t(i))
+        return ": face " + std::to_string(j) + " declares " + std::to_string(n) + " vertices";
+      for (int64_t q = 0; q < n; ++q) f.ids.push_back(uint64_t(next()));  // negative: huge, caught by check_polyhedron
+      f.offsets.push_back(f.ids.size());
+    }
+    return "";
   }
 };
 
