@@ -70,6 +70,14 @@ template <class A, int N> struct PointPacket {
   /// The cells of leaf slots [first, first + count) for the lanes `m`.
   void leaf(uint64_t first, uint32_t count, uint32_t m) {
     float const* xyz = mesh.positions();
+    // Every cell's index row first: they are the leaf's cache misses (the
+    // host's cell order need not follow space), and the loop below branches
+    // on each cell's box before it reads the next (component8: 0.96x time).
+    for (uint64_t i = first; i < first + count; ++i) {
+      uint64_t const cell = tree.item(i);
+      if (mesh.has_32bit_indices()) __builtin_prefetch(mesh.indices32() + cell * uint64_t(N));
+      else __builtin_prefetch(mesh.indices64() + cell * uint64_t(N));
+    }
     for (uint64_t i = first; i < first + count; ++i) {
       uint64_t const cell = tree.item(i);
       uint64_t v[N];
