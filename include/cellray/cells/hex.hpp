@@ -429,10 +429,15 @@ template <class A> inline HexClip<A> clip_hex(RayBatch<A> const& ray, CellCorner
 /// widths out: the point is far outside) the lane reports converged = false
 /// and inside = false; a caller that must not lose such points falls back to
 /// ref::locate (double, multi-start). The non-convergence rate on distorted
-/// hexes is measured in tests/test_cells_hex.cpp.
-template <class A> inline Located<A> locate_hex(PointBatch<A> const& pts, CellCorners<A, 8> const& c) {
+/// hexes is measured in tests/test_cells_hex.cpp. `lanes`: the lanes to
+/// locate (the others report not converged, not inside): the iteration
+/// stops when they are done, not when every lane is (point probes test a
+/// cell for the few points inside its box).
+template <class A>
+inline Located<A> locate_hex(PointBatch<A> const& pts, CellCorners<A, 8> const& c,
+                             vmask<A> const& lanes = simd::all_lanes<A>()) {
   Located<A> r;
-  r.param = isa_detail::invert_hex(c, pts.p(), isa_detail::centre<A>(), simd::all_lanes<A>(), hex_newton_cap, r.converged);
+  r.param = isa_detail::invert_hex(c, pts.p(), isa_detail::centre<A>(), lanes, hex_newton_cap, r.converged);
   r.value = isa_detail::trilerp<A>(c.s, r.param);
   r.inside = r.converged && isa_detail::in_unit_cube<A>(r.param, hex_inside_tolerance);
   return r;

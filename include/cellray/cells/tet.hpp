@@ -255,7 +255,7 @@ template <class A> inline CellClip<A> clip_tet(RayBatch<A> const& ray, CellCorne
 /// The tet's linear interpolant at `p`, extrapolated outside the cell.
 /// Returns value; `inside` gets the containment mask (see locate_tet).
 template <class A>
-inline vfloat<A> interpolate_tet(CellCorners<A, 4> const& c, Vec3<A> const& p, vmask<A>* inside = nullptr,
+CELLRAY_FORCE_INLINE vfloat<A> interpolate_tet(CellCorners<A, 4> const& c, Vec3<A> const& p, vmask<A>* inside = nullptr,
                                  Vec3<A>* weights123 = nullptr) {
   vfloat<A> const zero(0.f);
   vfloat<A> value = zero;

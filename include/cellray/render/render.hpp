@@ -342,8 +342,19 @@ std::vector<SurfaceHit> first_hits(Scene const& scene, std::vector<Ray> const& r
 
 /// The scene's field at each point (xyz triples): from the first part
 /// (tets first, then hexes) whose mesh holds it, NaN outside every part or
-/// in NaN cells; on TBB. The active array of each part's mesh.
+/// in NaN cells; the active array of each part's mesh. A point on a face,
+/// edge or vertex shared by cells gets one of their values (no cracks: see
+/// probe_tet_tolerance). On TBB (the calling thread's arena): the points are
+/// sorted along a Morton curve of the scene's bounds, located W at a time
+/// through each part's BVH by point-in-box tests (traverse/probe.hpp), and
+/// returned in input order. Scratch: 4 bytes per point (8 beyond 2^32).
 std::vector<float> sample_points(Scene const& scene, std::vector<float> const& xyz, RenderOptions const& o = {});
+
+/// The same into the host's buffer: `out[i]` (n floats) receives the value
+/// at (xyz[3i], xyz[3i + 1], xyz[3i + 2]) (3n floats). Nothing is kept.
+/// @throws InvalidArgument when n > 0 and either pointer is null, as the
+/// other overload for a part without a BVH or values.
+void sample_points(Scene const& scene, float const* xyz, uint64_t n, float* out, RenderOptions const& o = {});
 
 /// Direct volume rendering of the host's own rays, each over its [tmin,
 /// tmax] (unit directions: distances and opacity per unit length assume

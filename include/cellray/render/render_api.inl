@@ -343,28 +343,21 @@ inline std::vector<SurfaceHit> first_hits(Scene const& scene, std::vector<Ray> c
   return hits;
 }
 
-inline std::vector<float> sample_points(Scene const& scene, std::vector<float> const& xyz, RenderOptions const& o) {
+inline void sample_points(Scene const& scene, float const* xyz, uint64_t n, float* out, RenderOptions const& o) {
   PreparedScene const s = render_detail::prepare(scene);
-  uint64_t const n = xyz.size() / 3;
-  std::vector<float> out(n, std::numeric_limits<float>::quiet_NaN());
-  constexpr uint64_t chunk = 1024;
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (n + chunk - 1) / chunk), [&](tbb::blocked_range<uint64_t> const& r) {
-    std::vector<Ray> rays(chunk);
-    std::vector<float> v(chunk);
-    for (uint64_t c = r.begin(); c < r.end(); ++c) {
-      uint64_t const b = c * chunk, m = std::min(chunk, n - b);
-      for (uint64_t i = 0; i < m; ++i)
-        rays[i] = Ray{{xyz[3 * (b + i)], xyz[3 * (b + i) + 1], xyz[3 * (b + i) + 2]}, 0.f, {1.f, 0.f, 0.f}, 0.f};
-      for (PreparedPart const& part : s.parts) {
-        if (part.tets)
-          dispatch<SampleEntry>(o.isa, part.tree, *part.tets, rays.data(), m, 0.f, 1, 1, o.traversal, ValueWindows{}, v.data());
-        else
-          dispatch<SampleEntry>(o.isa, part.tree, *part.hexes, rays.data(), m, 0.f, 1, 1, o.traversal, ValueWindows{}, v.data());
-        for (uint64_t i = 0; i < m; ++i)
-          if (!(out[b + i] == out[b + i])) out[b + i] = v[i];
-      }
+  if (n == 0) return;
+  if (!xyz || !out) throw InvalidArgument("sample_points: no points or no output");
+  detail::probe_in_order(xyz, n, out, s.lo, s.hi, true, [&](float const* p, uint64_t m, float* v) {
+    for (PreparedPart const& part : s.parts) {
+      if (part.tets) dispatch<ProbeEntry>(o.isa, part.tree, *part.tets, p, m, v);
+      else dispatch<ProbeEntry>(o.isa, part.tree, *part.hexes, p, m, v);
     }
   });
+}
+
+inline std::vector<float> sample_points(Scene const& scene, std::vector<float> const& xyz, RenderOptions const& o) {
+  std::vector<float> out(xyz.size() / 3);
+  sample_points(scene, xyz.data(), out.size(), out.data(), o);
   return out;
 }
 

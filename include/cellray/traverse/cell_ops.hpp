@@ -34,6 +34,9 @@ template <class A> struct CellOps<A, 4> {
                                             : iso_root_tet_neubauer(r, k, c, isos, count, o.neubauer_steps);
   }
   static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 4> const& c) { return locate_tet(p, c); }
+  static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 4> const& c, vmask<A> const& /*lanes*/) {
+    return locate_tet(p, c);
+  }
   static Vec3<A> gradient(CellCorners<A, 4> const& c, Vec3<A> const& p, GradientMethod m, float h) {
     return m != GradientMethod::central ? gradient_tet(c) : gradient_central_tet(c, p, h);
   }
@@ -66,6 +69,10 @@ template <class A> struct CellOps<A, 8> {
     return h;
   }
   static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 8> const& c) { return locate_hex(p, c); }
+  /// Only the lanes in `lanes` (the iteration ends when they converge).
+  static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 8> const& c, vmask<A> const& lanes) {
+    return locate_hex(p, c, lanes);
+  }
   static Vec3<A> gradient(CellCorners<A, 8> const& c, Vec3<A> const& p, GradientMethod m, float h) {
     Located<A> const l = locate_hex(PointBatch<A>{p.x, p.y, p.z}, c);
     return m != GradientMethod::central ? gradient_hex(c, l.param) : gradient_central_hex(c, p, l.param, h);

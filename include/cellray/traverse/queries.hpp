@@ -8,6 +8,7 @@
 
 #include "../dispatch/dispatch.hpp"
 #include "../mesh/cell_mesh.hpp"
+#include "point_order.hpp"
 #include "ray.hpp"
 #include "sample.hpp"
 #include "tree_view.hpp"
@@ -49,6 +50,21 @@ template <class Arch> struct SampleEntry {
 };
 CELLRAY_EXTERN_ENTRY(SampleEntry)
 
+/// Point location (traverse/probe.hpp): fills the NaN entries of
+/// values[0, n) with the mesh's field at the points xyz[3i, 3i + 3); the
+/// other entries are kept and their points skipped (so several parts fill
+/// one array, the first part that holds a point winning). A point in no
+/// cell, or only in cells with a NaN (or infinite) corner value, stays NaN;
+/// a point exactly on a face, edge or vertex shared by cells takes the value
+/// of one of them (the field is continuous there). Packets of W consecutive
+/// points share one descent: callers order the points along a space-filling
+/// curve first (detail::probe_in_order). Single-threaded; reads only.
+template <class Arch> struct ProbeEntry {
+  static void run(TreeView const& tree, TetMesh const& mesh, float const* xyz, uint64_t n, float* values);
+  static void run(TreeView const& tree, HexMesh const& mesh, float const* xyz, uint64_t n, float* values);
+};
+CELLRAY_EXTERN_ENTRY(ProbeEntry)
+
 /// Baseline-callable: dispatches to `isa` (default: `default_isa()`).
 template <int N>
 std::vector<SurfaceHit> first_hits(TreeView const& tree, CellMesh<N> const& mesh, std::vector<Ray> const& rays,
@@ -75,14 +91,22 @@ std::vector<float> sample_rays(TreeView const& tree, CellMesh<N> const& mesh, st
   return out;
 }
 
-/// The value of the mesh at each point (xyz triples): NaN outside the mesh.
+/// The value of the mesh at each point (xyz triples): NaN outside the mesh
+/// and in cells with a NaN value (see ProbeEntry). The points are sorted
+/// along a Morton curve of the tree's bounds, located in that order on TBB
+/// (the caller's arena) and returned in input order.
 template <int N>
 std::vector<float> sample_points(TreeView const& tree, CellMesh<N> const& mesh, std::vector<float> const& xyz,
                                  Isa isa = default_isa()) {
-  std::vector<Ray> rays(xyz.size() / 3);
-  for (size_t i = 0; i < rays.size(); ++i)
-    rays[i] = Ray{{xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]}, 0.f, {1.f, 0.f, 0.f}, 0.f};
-  return sample_rays(tree, mesh, rays, 0.f, 1, 1, Traversal::packet, isa);
+  uint64_t const n = xyz.size() / 3;
+  std::vector<float> out(n);
+  glm::vec3 lo(0.f), hi(0.f);
+  if (!tree.empty()) lo = glm::vec3(tree.nodes[0].lo[0], tree.nodes[0].lo[1], tree.nodes[0].lo[2]),
+                     hi = glm::vec3(tree.nodes[0].hi[0], tree.nodes[0].hi[1], tree.nodes[0].hi[2]);
+  detail::probe_in_order(xyz.data(), n, out.data(), lo, hi, true, [&](float const* p, uint64_t m, float* v) {
+    dispatch<ProbeEntry>(isa, tree, mesh, p, m, v);
+  });
+  return out;
 }
 
 }  // namespace cellray

@@ -7,6 +7,7 @@
 
 #include "cell_ops.hpp"
 #include "first_hit.hpp"
+#include "probe.hpp"
 #include "sample.hpp"
 #include "queries.hpp"
 
@@ -123,5 +124,16 @@ template <class Arch>
 void SampleEntry<Arch>::run(TreeView const& tree, HexMesh const& mesh, Ray const* rays, uint64_t n, float step,
                             int per_ray, int group, Traversal how, ValueWindows const& windows, float* out) {
   impl::sample_rays<Arch>(tree, mesh, rays, n, step, per_ray, group, how, windows, out);
+}
+}  // namespace cellray
+
+namespace cellray {
+template <class Arch>
+void ProbeEntry<Arch>::run(TreeView const& tree, TetMesh const& mesh, float const* xyz, uint64_t n, float* values) {
+  probe_points<Arch>(tree, mesh, xyz, n, values);
+}
+template <class Arch>
+void ProbeEntry<Arch>::run(TreeView const& tree, HexMesh const& mesh, float const* xyz, uint64_t n, float* values) {
+  probe_points<Arch>(tree, mesh, xyz, n, values);
 }
 }  // namespace cellray
