@@ -1,9 +1,9 @@
 // VTU loading (issue #23): read_vtu on the flange (11 MB of inline base64,
-// 10,750 polyhedra) and two zlib files, against main's reader of 234e888
-// kept in vtu_main_234e888.hpp; bytes = file bytes, so output reads MB/s of
-// file. Each grid is compared with the old reader's before timing. In one
-// process the allocator reuses warm pages: cellray-render --stats' load_ms in
-// fresh processes is the figure users see (PROFILE.md).
+// 10,750 polyhedra) and two zlib files; bytes = file bytes, so output reads
+// MB/s of file. For a before/after, build this bench at both commits (the
+// reader before the parallel base64 decode is 234e888's). In one process
+// the allocator reuses warm pages: cellray-render --stats' load_ms in fresh
+// processes is the figure users see (PROFILE.md).
 //
 // PNG encoding (io/image_write.hpp) of 1024x768 rendered frames: the
 // component8 isosurface cellray-render draws by default (opaque) and a DVR
@@ -37,7 +37,6 @@
 #include <stb/stb_image.h>
 
 #include "bench_data.hpp"
-#include "vtu_main_234e888.hpp"
 
 using namespace cellray;
 
@@ -109,31 +108,11 @@ void BM_write_png(benchmark::State& state) {
   state.SetItemsProcessed(int64_t(state.iterations()) * width * height);
 }
 
-/// Exits unless both readers give the same grid.
-void check_same(UnstructuredGrid const& a, UnstructuredGrid const& b, std::string const& path) {
-  bool ok = a.xyz == b.xyz && a.tets == b.tets && a.hexes == b.hexes && a.point_arrays.size() == b.point_arrays.size() &&
-            a.cell_arrays.size() == b.cell_arrays.size() && a.report.summary() == b.report.summary();
-  for (size_t i = 0; ok && i < a.point_arrays.size(); ++i)
-    ok = a.point_arrays[i].name == b.point_arrays[i].name &&
-         std::memcmp(a.point_arrays[i].values.data(), b.point_arrays[i].values.data(), 4 * a.point_arrays[i].values.size()) == 0;
-  for (size_t i = 0; ok && i < a.cell_arrays.size(); ++i)
-    ok = a.cell_arrays[i].tet_values.size() == b.cell_arrays[i].tet_values.size() &&
-         a.cell_arrays[i].hex_values.size() == b.cell_arrays[i].hex_values.size() &&
-         std::memcmp(a.cell_arrays[i].tet_values.data(), b.cell_arrays[i].tet_values.data(), 4 * a.cell_arrays[i].tet_values.size()) == 0 &&
-         std::memcmp(a.cell_arrays[i].hex_values.data(), b.cell_arrays[i].hex_values.data(), 4 * a.cell_arrays[i].hex_values.size()) == 0;
-  if (!ok) {
-    std::fprintf(stderr, "error: %s: the new reader's grid differs from main's\n", path.c_str());
-    std::exit(1);
-  }
-}
-
-void BM_load_vtu(benchmark::State& state, char const* rel, bool main_reader) {
+void BM_load_vtu(benchmark::State& state, char const* rel) {
   std::string const path = bench::data_file(rel);
-  auto read = [&] { return main_reader ? io::main_234e888::read_vtu(path) : read_vtu(path); };
-  check_same(read_vtu(path), io::main_234e888::read_vtu(path), path);
   uint64_t const bytes = io::FileBytes(path).bytes().size();
   for (auto _ : state) {
-    UnstructuredGrid g = read();
+    UnstructuredGrid g = read_vtu(path);
     benchmark::DoNotOptimize(g.xyz.data());
   }
   state.SetBytesProcessed(int64_t(state.iterations() * bytes));
@@ -142,12 +121,9 @@ void BM_load_vtu(benchmark::State& state, char const* rel, bool main_reader) {
 
 }  // namespace
 
-BENCHMARK_CAPTURE(BM_load_vtu, flange_snappy_89k, "openfoam/flange_snappy_89k.vtu", false)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(BM_load_vtu, flange_snappy_89k_main, "openfoam/flange_snappy_89k.vtu", true)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(BM_load_vtu, kiefer_zlib_base64, "vtk-data/kiefer_dataset.vtu", false)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(BM_load_vtu, kiefer_zlib_base64_main, "vtk-data/kiefer_dataset.vtu", true)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(BM_load_vtu, disk_out_ref_zlib_raw, "vtk-data/disk_out_ref.vtu", false)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(BM_load_vtu, disk_out_ref_zlib_raw_main, "vtk-data/disk_out_ref.vtu", true)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(BM_load_vtu, flange_snappy_89k, "openfoam/flange_snappy_89k.vtu")->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(BM_load_vtu, kiefer_zlib_base64, "vtk-data/kiefer_dataset.vtu")->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(BM_load_vtu, disk_out_ref_zlib_raw, "vtk-data/disk_out_ref.vtu")->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(BM_encode_png, iso_component8_1024x768, false)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(BM_encode_png, dvr_component8_1024x768, true)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_write_png)->Unit(benchmark::kMillisecond)->UseRealTime();
