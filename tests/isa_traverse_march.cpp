@@ -1,6 +1,6 @@
 // MarchProbe (tests/support/march_probe.hpp) for one ISA: compiled once per
 // ISA with that ISA's flags. Drives TetMarch as the renderer does
-// (render_impl.hpp, integrate_march), without the integration.
+// (dvr_integrators_impl.hpp, integrate_march), without the integration.
 
 #include <cellray/traverse/march.hpp>
 

@@ -64,6 +64,27 @@ GeneratedMesh<8> rotated_hexes(GeneratedMesh<8> g, uint64_t seed) {
   return g;
 }
 
+/// `g` with each wedge (a collapsed hex a b c c d e f f: the VTK wedge
+/// a c b d f e, mesh/vtk_cells.hpp) re-listed from another corner of its
+/// triangles (turned by 0, 1 or 2 thirds): the same cells, still positively
+/// oriented, but a triangle end shared by two wedges now has its repeated
+/// corner at different vertices in the two cells, as in real meshes.
+GeneratedMesh<8> rotated_wedges(GeneratedMesh<8> g, uint64_t seed) {
+  Rng rng(seed);
+  for (size_t c = 0; c < g.cells.size(); c += 8) {
+    uint32_t* h = &g.cells[c];
+    bool const wedge = h[2] == h[3] && h[6] == h[7] && h[0] != h[1] && h[1] != h[2] && h[4] != h[5];
+    if (!wedge) continue;
+    for (uint64_t turns = rng.next() % 3; turns > 0; --turns) {
+      uint32_t const w[6] = {h[0], h[2], h[1], h[4], h[6], h[5]};  // VTK wedge order
+      uint32_t const t[6] = {w[1], w[2], w[0], w[4], w[5], w[3]};  // the same wedge from its next corner
+      uint32_t const back[8] = {t[0], t[2], t[1], t[1], t[3], t[5], t[4], t[4]};
+      std::copy_n(back, 8, h);
+    }
+  }
+  return g;
+}
+
 template <int N> struct Boxes {
   std::vector<glm::vec3> lo, hi;
   explicit Boxes(CellMesh<N> const& m) {
@@ -93,6 +114,10 @@ template <> struct CellShape<8> {
 /// the mesh boundary: rays are aimed at interior features only, where a
 /// crossing has a cell on both sides (at the boundary, "before the mesh" has
 /// no value and a crossing at the boundary face is legitimately either side).
+/// A face is its distinct vertex ids, as in build_hex_neighbours: a wedge's
+/// triangle end (a collapsed hex face) meets another cell's triangle, and a
+/// face with fewer than three distinct ids (collapsed to an edge or a point)
+/// is no face.
 template <int N> struct Topology {
   using S = CellShape<N>;
   std::map<std::vector<uint64_t>, int> face_count;
@@ -102,22 +127,28 @@ template <int N> struct Topology {
     std::vector<uint64_t> k;
     for (int i = 0; i < S::face_size; ++i) k.push_back(m.vertex(c, S::face[f][i]));
     std::sort(k.begin(), k.end());
+    k.erase(std::unique(k.begin(), k.end()), k.end());
     return k;
   }
   explicit Topology(CellMesh<N> const& m) {
     for (uint64_t c = 0; c < m.cell_count(); ++c)
-      for (int f = 0; f < S::faces; ++f) ++face_count[face_key(m, c, f)];
+      for (int f = 0; f < S::faces; ++f)
+        if (auto const k = face_key(m, c, f); k.size() >= 3) ++face_count[k];
     for (uint64_t c = 0; c < m.cell_count(); ++c)
       for (int f = 0; f < S::faces; ++f) {
-        if (face_count[face_key(m, c, f)] != 1) continue;
+        auto const k = face_key(m, c, f);
+        if (k.size() < 3 || face_count[k] != 1) continue;
         for (int i = 0; i < S::face_size; ++i) {
           uint64_t const a = m.vertex(c, S::face[f][i]), b = m.vertex(c, S::face[f][(i + 1) % S::face_size]);
           boundary_vertices.insert(a);
-          boundary_edges.insert({std::min(a, b), std::max(a, b)});
+          if (a != b) boundary_edges.insert({std::min(a, b), std::max(a, b)});
         }
       }
   }
-  bool shared_face(CellMesh<N> const& m, uint64_t c, int f) const { return face_count.at(face_key(m, c, f)) == 2; }
+  bool shared_face(CellMesh<N> const& m, uint64_t c, int f) const {
+    auto const it = face_count.find(face_key(m, c, f));
+    return it != face_count.end() && it->second == 2;
+  }
   bool interior_edge(uint64_t a, uint64_t b) const { return !boundary_edges.count({std::min(a, b), std::max(a, b)}); }
   bool interior_vertex(uint64_t v) const { return !boundary_vertices.count(v); }
 };
@@ -147,6 +178,7 @@ void aim(Rng& rng, CellMesh<N> const& m, Topology<N> const& topo, int kind, glm:
     }
     if (kind == 1) {
       int const* e = S::edge[rng.next() % S::edges];
+      if (cell.id[e[0]] == cell.id[e[1]]) continue;  // a collapsed edge (wedge, pyramid)
       if (!topo.interior_edge(cell.id[e[0]], cell.id[e[1]])) continue;
       double const a = rng.uniform(0.05, 0.95);
       target = cell.p[e[0]] + a * (cell.p[e[1]] - cell.p[e[0]]);
@@ -377,6 +409,51 @@ TEST_CASE("watertight: generated tets and hexes", "[cells][watertight][isa]") {
     CHECK(k.doubles - k.aimed_doubles <= k.samples / 500);
     CHECK(k.lost <= k.aimed / 10);  // measured <= 2 of 41 (SSE4, edge rays)
     CHECK(k.duplicated <= 6 * k.aimed);  // measured <= 118 of 37 (vertex rays: up to 8 cells touch the vertex)
+  }
+}
+
+// Hexahedra, wedges and pyramids together, all read as collapsed hexahedra
+// (mesh/vtk_cells.hpp), so every face is one kernel's bilinear patch from
+// both sides: a quad between a hex and a wedge or a pyramid's base, and a
+// triangle (a patch with two equal corners) between wedge ends. Listed as
+// generate_hex_family lists them (every cell then turned by rotated_hexes,
+// which keeps the vertex a wedge repeats), the guarantees of the hexes above
+// hold across the types, exactly.
+//
+// Not yet across differently listed triangles: when two cells repeat
+// different vertices of their shared triangle (a wedge listed from another
+// corner, a wedge's end against a pyramid's side), the canonical order of
+// cells/hex.hpp gives the two cells different patches of the same triangle
+// (the same points, other roundings), and the crossings chain only to
+// rounding: measured gaps in a third of the rays, none over 1.5e-6 of the
+// ray's unit length, no sample point in no cell. A canonical triangle patch
+// must also map its crossing back to each cell's own (u, v, w), which is
+// not a bilinear function of a shared parametrisation; see the note of
+// issue #21.
+TEST_CASE("watertight: hexes, wedges and pyramids across their shared faces", "[cells][watertight][isa]") {
+  CellRunner const run{false, test::isa()};
+  auto const generated = generate_hex_family(343, 7, 0.3f);
+  auto const family = rotated_hexes(generated, 8);
+  auto const h = measure(run, family.mesh(), 60, false, 6);
+  report("hex family", run, h);
+  CHECK(h[0].lost == 0);
+  CHECK(h[0].duplicated == 0);
+  CHECK(h[0].aimed > 40);
+  for (auto const& k : h) {
+    CHECK(k.gaps == 0);
+    CHECK(k.chain_gaps == 0);
+    CHECK(k.doubles - k.aimed_doubles <= k.samples / 500);
+    CHECK(k.lost <= k.aimed / 10);
+    CHECK(k.duplicated <= 6 * k.aimed);
+  }
+  auto const relisted = rotated_hexes(rotated_wedges(generated, 9), 8);
+  auto const w = measure(run, relisted.mesh(), 60, false, 6);
+  report("relisted wedges", run, w);
+  for (auto const& k : w) {
+    CHECK(k.gaps == 0);
+    CHECK(k.max_gap < 1e-5);  // measured up to 1.4e-6: rounding, not a hole
+    CHECK(k.chain_gaps <= 2 * k.rays / 3);  // measured 16-33 of 60
+    CHECK(k.lost <= k.aimed / 10);
   }
 }
 

@@ -1,4 +1,4 @@
-// Cell-segment DVR marching through face neighbours (render_impl.hpp,
+// Cell-segment DVR marching through face neighbours (dvr_integrators_impl.hpp,
 // integrate_march) renders what the tree-only path renders: the same
 // segments, pieces and compositing, so the images agree to rounding, and
 // both stay within the reference renderer's tolerance. Meshes that make a
@@ -33,30 +33,15 @@ using test::report;
 namespace {
 
 /// The image with face neighbours (march) and without (tree), compared;
-/// and the march against the reference.
-void check_march(TetMesh const& mesh, DvrParams const& p, int size, std::string const& what, double max_ref_rmse) {
+/// and the march against the reference. Tets, or hexahedra (wedges and
+/// pyramids as collapsed ones).
+template <int N>
+void check_march(CellMesh<N> const& mesh, DvrParams const& p, int size, std::string const& what, double max_ref_rmse) {
   MinMaxBvh const bvh = build_minmax_bvh(mesh);
-  TetNeighbours const nb = build_tet_neighbours(mesh);
-  Scene const tree(mesh, bvh), march(mesh, bvh, nullptr, &nb);
-  Camera const cam = camera_for(tree, size, size);
-  RenderOptions const o = test::isa_options();
-  Image const a = render_dvr(march, cam, p, o), b = render_dvr(tree, cam, p, o);
-  ImageDiff const d = compare_images(a, b, 0.5);
-  report(what + ": march vs tree", d);
-  CHECK(d.nonfinite == 0);
-  CHECK(d.rmse < 0.01);
-  CHECK(d.max < 0.5);
-  if (max_ref_rmse > 0) {
-    ImageDiff const r = compare_images(a, render_dvr_reference(tree, cam, p), 2.0);
-    report(what + ": march vs reference", r);
-    CHECK(r.rmse < max_ref_rmse);
-  }
-}
-
-/// check_march for a hexahedral part (wedges and pyramids as collapsed hexes).
-void check_hex_march(HexMesh const& mesh, DvrParams const& p, int size, std::string const& what, double max_ref_rmse) {
-  MinMaxBvh const bvh = build_minmax_bvh(mesh);
-  HexNeighbours const nb = build_hex_neighbours(mesh);
+  FaceNeighbours<N> const nb = [&] {
+    if constexpr (N == 4) return build_tet_neighbours(mesh);
+    else return build_hex_neighbours(mesh);
+  }();
   Scene const tree(mesh, bvh), march(mesh, bvh, nullptr, &nb);
   Camera const cam = camera_for(tree, size, size);
   RenderOptions const o = test::isa_options();
@@ -157,17 +142,17 @@ TEST_CASE("DVR march: hexes, wedges and pyramids, shading, early termination, Na
   float const diag = std::sqrt(12.f);
   auto const hexes = generate_hexes(8 * 8 * 8, 3);  // jittered: bilinear faces
   DvrParams p = segments(busy_tf(0.1f, 0.9f, diag / 8.f), diag / 250.f);
-  check_hex_march(hexes.mesh(), p, 40, "jittered 512 hexes", 0.3);
+  check_march(hexes.mesh(), p, 40, "jittered 512 hexes", 0.3);
   auto g = generate_hex_family(7 * 7 * 7, 4);
-  check_hex_march(g.mesh(), p, 40, "hexes, wedges, pyramids", 0.3);
+  check_march(g.mesh(), p, 40, "hexes, wedges, pyramids", 0.3);
   p.shading.enabled = true;
-  check_hex_march(g.mesh(), p, 32, "hex family, shaded", 0.3);
+  check_march(g.mesh(), p, 32, "hex family, shaded", 0.3);
   p.shading.enabled = false;
   p.tf.unit_distance = diag / 200.f;  // dense: most rays terminate inside
-  check_hex_march(g.mesh(), p, 32, "hex family, dense (early termination)", 0.3);
+  check_march(g.mesh(), p, 32, "hex family, dense (early termination)", 0.3);
   for (size_t v = 0; v < g.field.size(); v += 41) g.field[v] = std::numeric_limits<float>::quiet_NaN();
   p.tf.unit_distance = diag / 8.f;
-  check_hex_march(g.mesh(), p, 32, "hex family, NaN cells", 0);
+  check_march(g.mesh(), p, 32, "hex family, NaN cells", 0);
   // Neighbours of another hex mesh are refused.
   auto const other = generate_hexes(6 * 6 * 6, 3);
   HexNeighbours const wrong = build_hex_neighbours(other.mesh());
@@ -189,7 +174,7 @@ TEST_CASE("DVR march: boxturb48 hexes, a narrow band of enstrophy", "[render][dv
   tf.rgba = {{0.2f, 0.3f, 0.8f, 0.f}, {0.2f, 0.3f, 0.8f, 0.f}, {0.5f, 0.6f, 0.9f, 0.3f}, {0.9f, 0.5f, 0.4f, 0.3f},
              {0.8f, 0.1f, 0.1f, 0.f}, {0.8f, 0.1f, 0.1f, 0.f}};
   tf.unit_distance = diag / 35.f;
-  check_hex_march(mesh, segments(tf, diag / 250.f), 64, "boxturb48", 0);
+  check_march(mesh, segments(tf, diag / 250.f), 64, "boxturb48", 0);
 }
 
 }  // namespace test_render_march

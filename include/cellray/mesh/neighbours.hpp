@@ -200,15 +200,27 @@ template <class Id, class Src> void match_tet_faces(Src const* idx, uint64_t n, 
 
 }  // namespace detail
 
-/// 16 bytes per tet: `across(cell, f)` is the cell sharing face f, or -1 on
-/// the mesh boundary, at a face shared by more than two cells (duplicated or
-/// overlapping cells: no single neighbour is right) and for every face of a
-/// cell with a repeated vertex id (degenerate).
-class TetNeighbours {
+/// Face neighbours of a mesh with N corners per cell: `across(cell, f)` is
+/// the cell sharing face f, or -1 on the mesh boundary and at a face shared
+/// by more than two cells (duplicated or overlapping cells: no single
+/// neighbour is right).
+/// - Tets (TetNeighbours, 16 bytes per cell): faces opposite each corner;
+///   every face of a cell with a repeated vertex id is -1 (degenerate).
+/// - Hexahedra (HexNeighbours, 24 bytes per cell; wedges and pyramids read
+///   as collapsed ones, mesh/vtk_cells.hpp): VTK's hexahedron faces, in the
+///   order of cells/hex.hpp's hex_faces (bottom, top, then the four sides).
+///   Two faces are shared when they have the same distinct vertices: a quad
+///   with a quad, a triangle (a wedge's end, a pyramid's side) with a
+///   triangle. A face with fewer than three distinct vertices is -1 (a
+///   collapsed face has no area: no ray leaves through it).
+template <int N> class FaceNeighbours {
+  static_assert(N == 4 || N == 8, "tets or hexahedra");
+
  public:
-  TetNeighbours() = default;
-  uint64_t cell_count() const noexcept { return across_.size() / 4; }
-  int32_t across(uint64_t cell, int face) const noexcept { return across_[4 * cell + uint64_t(face)]; }
+  static constexpr int faces = N == 4 ? 4 : 6;
+  FaceNeighbours() = default;
+  uint64_t cell_count() const noexcept { return across_.size() / faces; }
+  int32_t across(uint64_t cell, int face) const noexcept { return across_[faces * cell + uint64_t(face)]; }
   int32_t const* data() const noexcept { return across_.data(); }
   uint64_t memory_bytes() const noexcept { return across_.size() * sizeof(int32_t); }
 
@@ -217,24 +229,28 @@ class TetNeighbours {
   /// in 64 cells spread over the mesh. Neighbours of another mesh would send
   /// a march to cells its ray does not enter next (wrong pixels, not a
   /// crash), so the renderer refuses them.
-  bool fits(TetMesh const& mesh) const noexcept {
+  bool fits(CellMesh<N> const& mesh) const noexcept {
     return mesh.cell_count() == cell_count() && mesh.vertex_count() == vertex_count_ && fingerprint(mesh) == fingerprint_;
   }
 
  private:
-  friend TetNeighbours build_tet_neighbours(TetMesh const& mesh);
-  static uint64_t fingerprint(TetMesh const& mesh) noexcept {
+  friend FaceNeighbours<4> build_tet_neighbours(TetMesh const& mesh);
+  friend FaceNeighbours<8> build_hex_neighbours(HexMesh const& mesh);
+  static uint64_t fingerprint(CellMesh<N> const& mesh) noexcept {
     uint64_t const n = mesh.cell_count();
     uint64_t h = 0x9e3779b97f4a7c15ull;
     for (uint64_t k = 0; k < 64 && n > 0; ++k) {
       uint64_t const c = k * (n - 1) / 63;
-      for (int i = 0; i < 4; ++i) h = (h ^ mesh.vertex(c, i)) * 0x100000001b3ull;
+      for (int i = 0; i < N; ++i) h = (h ^ mesh.vertex(c, i)) * 0x100000001b3ull;
     }
     return h;
   }
   detail::LargeVector<int32_t> across_;  // unset until built
   uint64_t vertex_count_ = 0, fingerprint_ = 0;
 };
+
+using TetNeighbours = FaceNeighbours<4>;
+using HexNeighbours = FaceNeighbours<8>;
 
 /// Matches every face of `mesh` with the face of another cell over the same
 /// three vertices: faces bucketed by their smallest vertex (a counting sort
@@ -261,42 +277,6 @@ inline TetNeighbours build_tet_neighbours(TetMesh const& mesh) {
   else detail::match_tet_faces<uint64_t>(mesh.indices64(), n, nv, out.across_.data());
   return out;
 }
-
-/// 24 bytes per hexahedron (or wedge or pyramid read as a collapsed one,
-/// mesh/vtk_cells.hpp): `across(cell, f)` is the cell sharing face f (VTK's
-/// hexahedron faces, in the order of cells/hex.hpp's hex_faces: bottom, top,
-/// then the four sides), or -1 on the mesh boundary, at a face shared by
-/// more than two cells, and for a face with fewer than three distinct
-/// vertices (a collapsed face has no area: no ray leaves through it). Two
-/// faces are shared when they have the same distinct vertices: a quad with
-/// a quad, a triangle (a wedge's end, a pyramid's side) with a triangle.
-class HexNeighbours {
- public:
-  static constexpr int faces = 6;
-  HexNeighbours() = default;
-  uint64_t cell_count() const noexcept { return across_.size() / faces; }
-  int32_t across(uint64_t cell, int face) const noexcept { return across_[faces * cell + uint64_t(face)]; }
-  int32_t const* data() const noexcept { return across_.data(); }
-  uint64_t memory_bytes() const noexcept { return across_.size() * sizeof(int32_t); }
-  /// As TetNeighbours::fits.
-  bool fits(HexMesh const& mesh) const noexcept {
-    return mesh.cell_count() == cell_count() && mesh.vertex_count() == vertex_count_ && fingerprint(mesh) == fingerprint_;
-  }
-
- private:
-  friend HexNeighbours build_hex_neighbours(HexMesh const& mesh);
-  static uint64_t fingerprint(HexMesh const& mesh) noexcept {
-    uint64_t const n = mesh.cell_count();
-    uint64_t h = 0x9e3779b97f4a7c15ull;
-    for (uint64_t k = 0; k < 64 && n > 0; ++k) {
-      uint64_t const c = k * (n - 1) / 63;
-      for (int i = 0; i < 8; ++i) h = (h ^ mesh.vertex(c, i)) * 0x100000001b3ull;
-    }
-    return h;
-  }
-  detail::LargeVector<int32_t> across_;  // unset until built
-  uint64_t vertex_count_ = 0, fingerprint_ = 0;
-};
 
 namespace detail {
 

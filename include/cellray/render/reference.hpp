@@ -465,7 +465,7 @@ inline bool part_color(Setup const& s, Crossing const& x, dvec3 const& q, dvec3&
   return true;
 }
 
-/// The fast path's per-pixel hash (render_impl.hpp), bit for bit.
+/// The fast path's per-pixel hash (iso_impl.hpp), bit for bit.
 inline float hash01(uint32_t a, uint32_t b) {
   uint32_t h = a * 0x9E3779B1u ^ (b + 0x7F4A7C15u) * 0x85EBCA77u;
   h ^= h >> 15;

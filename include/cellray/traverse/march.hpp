@@ -26,7 +26,6 @@
 #include <algorithm>
 #include <cstdint>
 #include <limits>
-#include <type_traits>
 
 #include "../mesh/neighbours.hpp"
 #include "cell_ops.hpp"
@@ -46,9 +45,6 @@ inline vmask<A> visible_values(ValueWindows const& w, CellCorners<A, N> const& c
   for (int i = 1; i < N; ++i) vmin = simd::min(vmin, c.s[i]), vmax = simd::max(vmax, c.s[i]);
   return windows_overlap<A>(w, vmin, vmax);
 }
-
-/// Face neighbours of a mesh with N corners per cell.
-template <int N> using NeighboursOf = std::conditional_t<N == 4, TetNeighbours, HexNeighbours>;
 
 /// Per lane, the visible cell the ray is in or enters first after `lo`: the
 /// smallest t_in of the cells whose clip interval ends past lo (strictly, so
@@ -101,11 +97,11 @@ template <class A, int N> struct FirstCellQuery {
 /// locate() for lanes without a cell, step() for the others, integrating
 /// each step's segments, until its lanes are done.
 template <class A, int N> struct CellMarch {
-  static constexpr int faces = N == 4 ? 4 : 6;
+  static constexpr int faces = FaceNeighbours<N>::faces;
   using Clip = typename CellOps<A, N>::Clip;
   TreeView const& tree;
   CellMesh<N> const& mesh;
-  int32_t const* across;  ///< NeighboursOf<N>::data()
+  int32_t const* across;  ///< FaceNeighbours<N>::data()
   RayPacket<A> const& r;
   ValueWindows const& windows;
   /// Cells in a row without a visible segment before a lane asks the tree
@@ -138,7 +134,7 @@ template <class A, int N> struct CellMarch {
     Vec3<A> gradient;  ///< tets: the cell's (constant) field gradient, when asked for
   };
 
-  CellMarch(TreeView const& tr, CellMesh<N> const& m, NeighboursOf<N> const& nb, RayPacket<A> const& rays,
+  CellMarch(TreeView const& tr, CellMesh<N> const& m, FaceNeighbours<N> const& nb, RayPacket<A> const& rays,
             ValueWindows const& w, vfloat<A> const& t_start, vfloat<A> const& t_stop)
       : tree(tr), mesh(m), across(nb.data()), r(rays), windows(w), t(t_start), t_end(t_stop) {}
 
