@@ -86,6 +86,15 @@ std::unique_ptr<Subject> make_subject(std::string const& key) {
     s->gen_hexes = std::make_unique<GeneratedMesh<8>>(generate_hexes(30000));
     finish(*s, s->gen_hexes->mesh());
     s->iso = 0.3f;
+  } else if (key == "gen-wedges" || key == "gen-pyramids" || key == "gen-family") {
+    // One row per cell type of the hexahedron family (collapsed hexahedra,
+    // mesh/vtk_cells.hpp), and the three mixed: about as many cells as
+    // gen-tets, for speed per cell type at equal cell counts.
+    s->gen_hexes = std::make_unique<GeneratedMesh<8>>(key == "gen-wedges"     ? generate_wedges(105000)
+                                                      : key == "gen-pyramids" ? generate_pyramids(105000)
+                                                                              : generate_hex_family(70000));
+    finish(*s, s->gen_hexes->mesh());
+    s->iso = 0.3f;
   } else if (key == "post") {
     read("vtk-data/post.vtk");
     finish(*s, s->grid->tet_mesh(), 0.45f);
@@ -99,7 +108,8 @@ std::unique_ptr<Subject> make_subject(std::string const& key) {
     read("openfoam/boxturb48_dns.vtk");
     finish(*s, s->grid->hex_mesh().with_array("enstrophy"), 0.3f);
   } else {
-    throw InvalidArgument("unknown mesh '" + key + "' (gen-tets, gen-hexes, post, disk, component8, boxturb)");
+    throw InvalidArgument("unknown mesh '" + key +
+                          "' (gen-tets, gen-hexes, gen-wedges, gen-pyramids, gen-family, post, disk, component8, boxturb)");
   }
   return s;
 }
@@ -560,7 +570,8 @@ void write_report(std::string const& path, int size) {
 int main(int argc, char** argv) {
   Settings st;
   std::string csv, report;
-  std::vector<std::string> meshes = {"gen-tets", "gen-hexes", "post", "disk", "component8"};
+  std::vector<std::string> meshes = {"gen-tets",   "gen-hexes", "gen-wedges", "gen-pyramids",
+                                     "gen-family", "post",      "disk",       "component8"};
   std::string modes = "iso,dvr,normals";
   for (int i = 1; i < argc; ++i) {
     std::string const a = argv[i];
@@ -581,7 +592,8 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: bench_accuracy [--csv PATH] [--report PATH] [--size N] [--frames N] [--full]\n"
-                   "                      [--modes iso,dvr,normals] [--meshes gen-tets,gen-hexes,post,disk,component8,boxturb]\n");
+                   "                      [--modes iso,dvr,normals]\n"
+                   "                      [--meshes gen-tets,gen-hexes,gen-wedges,gen-pyramids,gen-family,post,disk,component8,boxturb]\n");
       return a == "--help" ? 0 : 2;
     }
   }

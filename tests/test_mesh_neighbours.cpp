@@ -17,6 +17,7 @@
 
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/neighbours.hpp>
+#include <cellray/mesh/validate.hpp>
 
 // One namespace per file: a stage's files compile as one unity TU
 // (tests/CMakeLists.txt), where file-local names must not meet.
@@ -249,6 +250,42 @@ TEST_CASE("hex neighbours: hexes, wedges and pyramids as collapsed hexes, duplic
   bad[8 * 3 + 5] = uint32_t(g.xyz.size() / 3 + 2);
   CHECK_THROWS_WITH(build_hex_neighbours(HexMesh{view(g.xyz), view(bad), view(g.field)}),
                     Catch::Contains("cell 3 ") && Catch::Contains("corner 5"));
+}
+
+// The wedge-only and pyramid-only generators (per-type accuracy rows,
+// bench_accuracy): conforming (every interior face paired, counted from the
+// lattice), positively oriented and not flat.
+TEST_CASE("hex neighbours: generate_wedges and generate_pyramids conform", "[mesh][neighbours]") {
+  auto paired_faces = [](HexMesh const& m) {
+    HexNeighbours const nb = build_hex_neighbours(m);
+    check_hex_against_brute_force(m);
+    uint64_t paired = 0;
+    for (uint64_t c = 0; c < m.cell_count(); ++c)
+      for (int f = 0; f < 6; ++f) paired += nb.across(c, f) >= 0;
+    return paired;
+  };
+  auto const w = generate_wedges(2 * 5 * 5 * 5, 2);
+  uint64_t const n = uint64_t(w.lattice);
+  CHECK(w.cells.size() / 8 == 2 * n * n * n);
+  // Shared faces: the 3 n^2 (n - 1) interior lattice faces, those between
+  // stacked cells twice (two triangles: every cell is split alike), and
+  // each cell's diagonal quad.
+  uint64_t const interior = 3 * n * n * (n - 1);
+  uint64_t const stacked = n * n * (n - 1);  // of the interior faces: between stacked cells
+  CHECK(paired_faces(w.mesh()) == 2 * (interior + stacked + n * n * n));
+  auto const p = generate_pyramids(6 * 4 * 4 * 4, 2);
+  uint64_t const m = uint64_t(p.lattice);
+  CHECK(p.cells.size() / 8 == 6 * m * m * m);
+  // Each pyramid's base on the next cell's pyramid, and its four sides on
+  // the neighbouring pyramids of its own cell (12 per cell).
+  CHECK(paired_faces(p.mesh()) == 2 * (3 * m * m * (m - 1) + 12 * m * m * m));
+  for (auto const* g : {&w, &p}) {
+    ValidationReport const r = validate(g->mesh());
+    INFO(r.message());
+    CHECK(r.ok());
+    CHECK_FALSE(r.inverted);
+    CHECK_FALSE(r.zero_volume);
+  }
 }
 
 }  // namespace test_mesh_neighbours

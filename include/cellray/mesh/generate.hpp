@@ -170,4 +170,50 @@ inline GeneratedMesh<8> generate_hex_family(uint64_t target_cells, uint64_t seed
   return g;
 }
 
+/// Wedges only, as collapsed hexahedra (mesh/vtk_cells.hpp): every cell of
+/// generate_hexes' jittered lattice split along its 0-2-6-4 diagonal plane
+/// into (0 1 2 2 4 5 6 6) and (0 2 3 3 4 6 7 7), as generate_hex_family's
+/// split columns. About `target_cells` wedges.
+inline GeneratedMesh<8> generate_wedges(uint64_t target_cells, uint64_t seed = 1, float jitter = 0.3f) {
+  GeneratedMesh<8> g = generate_hexes((target_cells + 1) / 2, seed, jitter);
+  std::vector<uint32_t> cells;
+  cells.reserve(g.cells.size() * 2);
+  for (size_t h = 0; h < g.cells.size(); h += 8) {
+    uint32_t const* c = g.cells.data() + h;
+    uint32_t const a[16] = {c[0], c[1], c[2], c[2], c[4], c[5], c[6], c[6], c[0], c[2], c[3], c[3], c[4], c[6], c[7], c[7]};
+    cells.insert(cells.end(), a, a + 16);
+  }
+  g.cells = std::move(cells);
+  return g;
+}
+
+/// Pyramids only, as collapsed hexahedra (b0 b1 b2 b3 apex x4): every cell
+/// of generate_hexes' jittered lattice split into six around an added
+/// vertex at its corners' mean (the field there analytic, as at the
+/// lattice's), one per face, each base turned to face its apex (positively
+/// oriented, as VTK's pyramid). About `target_cells` pyramids.
+inline GeneratedMesh<8> generate_pyramids(uint64_t target_cells, uint64_t seed = 1, float jitter = 0.3f) {
+  GeneratedMesh<8> g = generate_hexes((target_cells + 5) / 6, seed, jitter);
+  // VTK hexahedron faces with their corners listed so the base's normal
+  // (right hand) points into the cell, towards the centre.
+  static constexpr int base[6][4] = {{0, 1, 2, 3}, {4, 7, 6, 5}, {0, 4, 5, 1}, {3, 2, 6, 7}, {0, 3, 7, 4}, {1, 5, 6, 2}};
+  std::vector<uint32_t> cells;
+  cells.reserve(g.cells.size() * 6);
+  for (size_t h = 0; h < g.cells.size(); h += 8) {
+    uint32_t const* c = g.cells.data() + h;
+    glm::vec3 centre(0.f);
+    for (int k = 0; k < 8; ++k) centre += 0.125f * glm::vec3(g.xyz[3 * c[k]], g.xyz[3 * c[k] + 1], g.xyz[3 * c[k] + 2]);
+    auto const v = uint32_t(g.xyz.size() / 3);
+    g.xyz.insert(g.xyz.end(), {centre.x, centre.y, centre.z});
+    g.field.push_back(analytic_field(centre, 0.f));
+    g.field_t1.push_back(analytic_field(centre, 1.f));
+    for (auto const& f : base) {
+      uint32_t const pyr[8] = {c[f[0]], c[f[1]], c[f[2]], c[f[3]], v, v, v, v};
+      cells.insert(cells.end(), pyr, pyr + 8);
+    }
+  }
+  g.cells = std::move(cells);
+  return g;
+}
+
 }  // namespace cellray
