@@ -338,6 +338,25 @@ void report(char const* name, CellRunner const& run, std::array<Stats, 3> const&
   }
 }
 
+/// What rays aimed at a hexahedral mesh's faces, edges and vertices must
+/// show (see "watertight: generated tets and hexes").
+void check_hex_guarantees(std::array<Stats, 3> const& h) {
+  CHECK(h[0].lost == 0);
+  CHECK(h[0].duplicated == 0);
+  CHECK(h[0].aimed > 40);
+  for (auto const& k : h) {
+    CHECK(k.gaps == 0);
+    CHECK(k.chain_gaps == 0);
+    // Containment tolerance (hex_inside_tolerance) claims the aimed point,
+    // on a face, edge or vertex, for several cells by design (every ray's);
+    // a span sample only if it falls within 1e-5 (trilinear units) of a
+    // shared face: expected ~0.1 of 1980 samples, measured 0.
+    CHECK(k.doubles - k.aimed_doubles <= k.samples / 500);
+    CHECK(k.lost <= k.aimed / 10);  // measured <= 2 of 41 (SSE4, edge rays)
+    CHECK(k.duplicated <= 6 * k.aimed);  // measured <= 118 of 37 (vertex rays: up to 8 cells touch the vertex)
+  }
+}
+
 }  // namespace
 
 // Guarantees by construction hold through face interiors: canonical face
@@ -396,20 +415,7 @@ TEST_CASE("watertight: generated tets and hexes", "[cells][watertight][isa]") {
   auto const hexes = rotated_hexes(generate_hexes(343, 3, 0.3f), 5);
   auto const h = measure(run, hexes.mesh(), 60, true, 2);
   report("generated hexes", run, h);
-  CHECK(h[0].lost == 0);
-  CHECK(h[0].duplicated == 0);
-  CHECK(h[0].aimed > 40);
-  for (auto const& k : h) {
-    CHECK(k.gaps == 0);
-    CHECK(k.chain_gaps == 0);
-    // Containment tolerance (hex_inside_tolerance) claims the aimed point,
-    // on a face, edge or vertex, for several cells by design (every ray's);
-    // a span sample only if it falls within 1e-5 (trilinear units) of a
-    // shared face: expected ~0.1 of 1980 samples, measured 0.
-    CHECK(k.doubles - k.aimed_doubles <= k.samples / 500);
-    CHECK(k.lost <= k.aimed / 10);  // measured <= 2 of 41 (SSE4, edge rays)
-    CHECK(k.duplicated <= 6 * k.aimed);  // measured <= 118 of 37 (vertex rays: up to 8 cells touch the vertex)
-  }
+  check_hex_guarantees(h);
 }
 
 // Hexahedra, wedges and pyramids together, all read as collapsed hexahedra
@@ -436,16 +442,7 @@ TEST_CASE("watertight: hexes, wedges and pyramids across their shared faces", "[
   auto const family = rotated_hexes(generated, 8);
   auto const h = measure(run, family.mesh(), 60, false, 6);
   report("hex family", run, h);
-  CHECK(h[0].lost == 0);
-  CHECK(h[0].duplicated == 0);
-  CHECK(h[0].aimed > 40);
-  for (auto const& k : h) {
-    CHECK(k.gaps == 0);
-    CHECK(k.chain_gaps == 0);
-    CHECK(k.doubles - k.aimed_doubles <= k.samples / 500);
-    CHECK(k.lost <= k.aimed / 10);
-    CHECK(k.duplicated <= 6 * k.aimed);
-  }
+  check_hex_guarantees(h);
   auto const relisted = rotated_hexes(rotated_wedges(generated, 9), 8);
   auto const w = measure(run, relisted.mesh(), 60, false, 6);
   report("relisted wedges", run, w);

@@ -181,18 +181,6 @@ inline vfloat<A> values_at(PreparedScene const& s, RayPacket<A> const& r, vfloat
   return simd::load<A>(out);
 }
 
-/// Deterministic per-pixel hash in [0, 1): AO directions must not flicker
-/// between frames or differ between ISAs.
-inline float hash01(uint32_t a, uint32_t b) {
-  uint32_t h = a * 0x9E3779B1u ^ (b + 0x7F4A7C15u) * 0x85EBCA77u;
-  h ^= h >> 15;
-  h *= 0x2C1B3C6Du;
-  h ^= h >> 12;
-  h *= 0x297A2D39u;
-  h ^= h >> 15;
-  return float(h >> 8) * (1.f / 16777216.f);
-}
-
 template <class A>
 void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const& p, RenderOptions const& o,
                      Tile const& tile, FrameBuffer const& out) {
@@ -360,7 +348,8 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
         // directions from the pixel's hash (the same on every ISA).
         auto const ao_ray = [&](int l, int k) {
           uint32_t const pix = uint32_t(py[l]) * uint32_t(cam.width) + uint32_t(px[l]);
-          float const u1 = hash01(pix, uint32_t(2 * k + 64 * layer)), u2 = hash01(pix, uint32_t(2 * k + 1 + 64 * layer));
+          float const u1 = pixel_hash01(pix, uint32_t(2 * k + 64 * layer));
+          float const u2 = pixel_hash01(pix, uint32_t(2 * k + 1 + 64 * layer));
           float const rr = std::sqrt(u1), phi = 6.2831853f * u2;
           glm::vec3 const n = nrm[l];
           glm::vec3 const a = std::fabs(n.x) > 0.5f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);

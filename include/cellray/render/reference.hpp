@@ -465,17 +465,6 @@ inline bool part_color(Setup const& s, Crossing const& x, dvec3 const& q, dvec3&
   return true;
 }
 
-/// The fast path's per-pixel hash (iso_impl.hpp), bit for bit.
-inline float hash01(uint32_t a, uint32_t b) {
-  uint32_t h = a * 0x9E3779B1u ^ (b + 0x7F4A7C15u) * 0x85EBCA77u;
-  h ^= h >> 15;
-  h *= 0x2C1B3C6Du;
-  h ^= h >> 12;
-  h *= 0x297A2D39u;
-  h ^= h >> 15;
-  return float(h >> 8) * (1.f / 16777216.f);
-}
-
 /// The field at `q` in the first cell (of any part) that holds it, by exact
 /// point location; false outside the mesh and in NaN cells.
 inline bool value_at(Setup const& s, dvec3 const& q, double& v) {
@@ -555,7 +544,8 @@ inline void iso_pixel(Setup const& s, Camera const& cam, IsoParams const& p, Ref
     }
     for (int k = 0; k < p.ao_samples; ++k) {
       uint32_t const pix = uint32_t(y) * uint32_t(cam.width) + uint32_t(x);
-      double const u1 = hash01(pix, uint32_t(2 * k + 64 * layer)), u2 = hash01(pix, uint32_t(2 * k + 1 + 64 * layer));
+      double const u1 = pixel_hash01(pix, uint32_t(2 * k + 64 * layer));
+      double const u2 = pixel_hash01(pix, uint32_t(2 * k + 1 + 64 * layer));
       double const rr = std::sqrt(u1), phi = 6.283185307179586 * u2;
       dvec3 const a = std::abs(n.x) > 0.5 ? dvec3(0, 1, 0) : dvec3(1, 0, 0);
       dvec3 const tx = glm::normalize(glm::cross(a, n)), ty = glm::cross(n, tx);

@@ -51,4 +51,17 @@ struct PreparedScene {
   ColorTable colors;
 };
 
+/// Deterministic per-pixel hash in [0, 1): ambient-occlusion directions
+/// must not flicker between frames or differ between ISAs, and the
+/// reference renderer draws the same ones (one definition for both).
+inline float pixel_hash01(uint32_t a, uint32_t b) {
+  uint32_t h = a * 0x9E3779B1u ^ (b + 0x7F4A7C15u) * 0x85EBCA77u;
+  h ^= h >> 15;
+  h *= 0x2C1B3C6Du;
+  h ^= h >> 12;
+  h *= 0x297A2D39u;
+  h ^= h >> 15;
+  return float(h >> 8) * (1.f / 16777216.f);
+}
+
 }  // namespace cellray
