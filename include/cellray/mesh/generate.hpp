@@ -128,6 +128,18 @@ inline GeneratedMesh<8> generate_hexes(uint64_t target_cells, uint64_t seed = 1,
   return detail::generate_lattice<8>(n, seed, jitter);
 }
 
+namespace detail {
+/// The hexahedron `c` (8 ids, VTK order) split along its 0-2-6-4 diagonal
+/// plane into two wedges, as collapsed hexahedra: (0 1 2 2 4 5 6 6) and
+/// (0 2 3 3 4 6 7 7), appended to `cells`.
+inline void append_wedge_split(uint32_t const* c, std::vector<uint32_t>& cells) {
+  uint32_t const a[8] = {c[0], c[1], c[2], c[2], c[4], c[5], c[6], c[6]};
+  uint32_t const b[8] = {c[0], c[2], c[3], c[3], c[4], c[6], c[7], c[7]};
+  cells.insert(cells.end(), a, a + 8);
+  cells.insert(cells.end(), b, b + 8);
+}
+}  // namespace detail
+
 /// A conforming mesh of the hexahedron family, every cell as 8 corner ids
 /// (wedges and pyramids as collapsed hexahedra, as the readers give them,
 /// mesh/vtk_cells.hpp): the jittered lattice of generate_hexes with every
@@ -148,10 +160,7 @@ inline GeneratedMesh<8> generate_hex_family(uint64_t target_cells, uint64_t seed
       for (int i = 0; i < n; ++i) {
         uint32_t const* c = g.cells.data() + 8 * ((size_t(k) * size_t(n) + size_t(j)) * size_t(n) + size_t(i));
         if ((i + j) % 2 == 0) {
-          uint32_t const a[8] = {c[0], c[1], c[2], c[2], c[4], c[5], c[6], c[6]};
-          uint32_t const b[8] = {c[0], c[2], c[3], c[3], c[4], c[6], c[7], c[7]};
-          cells.insert(cells.end(), a, a + 8);
-          cells.insert(cells.end(), b, b + 8);
+          detail::append_wedge_split(c, cells);
           continue;
         }
         cells.insert(cells.end(), c, c + 8);
@@ -178,11 +187,7 @@ inline GeneratedMesh<8> generate_wedges(uint64_t target_cells, uint64_t seed = 1
   GeneratedMesh<8> g = generate_hexes((target_cells + 1) / 2, seed, jitter);
   std::vector<uint32_t> cells;
   cells.reserve(g.cells.size() * 2);
-  for (size_t h = 0; h < g.cells.size(); h += 8) {
-    uint32_t const* c = g.cells.data() + h;
-    uint32_t const a[16] = {c[0], c[1], c[2], c[2], c[4], c[5], c[6], c[6], c[0], c[2], c[3], c[3], c[4], c[6], c[7], c[7]};
-    cells.insert(cells.end(), a, a + 16);
-  }
+  for (size_t h = 0; h < g.cells.size(); h += 8) detail::append_wedge_split(g.cells.data() + h, cells);
   g.cells = std::move(cells);
   return g;
 }

@@ -9,7 +9,6 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <vector>
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>

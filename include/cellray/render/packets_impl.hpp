@@ -4,7 +4,6 @@
 // reads and writes, and the vector maths the shading shares.
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
