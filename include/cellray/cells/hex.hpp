@@ -10,7 +10,11 @@
 // patch is evaluated from its corners in a canonical order (start at the
 // lowest global vertex id, continue towards the lower of its two neighbours),
 // so two hexes sharing a face compute the same ray parameter, patch
-// coordinates and value bit for bit. A ray meeting a patch more than twice in
+// coordinates and value bit for bit. A face with three distinct corners (a
+// wedge's end or a pyramid's side, read as a collapsed hex) is crossed as a
+// tet crosses its faces instead, the plane through its corners in ascending
+// id order (triangle_hits): the bits then agree with any cell across it,
+// whichever vertex that cell repeats, and with a tet. A ray meeting a patch more than twice in
 // total (non-convex hex with strongly curved faces) gets the hull of its
 // crossings as one interval: that hull covers part of the neighbour across
 // the curved face, where both cells then report (a clip overlap, and an iso
@@ -188,14 +192,11 @@ CELLRAY_FORCE_INLINE void face_point(PatchCorner<A> const q[4], vfloat<A> const&
   uvw = q[0].uvw + u * (q[1].uvw - q[0].uvw) + v * (q[3].uvw - q[0].uvw);
 }
 
-/// Records a patch crossing at ray parameter t, patch coordinates (u, v) in
-/// the lanes `ok` into the hull.
+/// Records a face crossing at ray parameter t with value s and trilinear
+/// coordinates uvw in the lanes `ok` into the hull.
 template <class A>
-CELLRAY_FORCE_INLINE void hull_add(PatchCorner<A> const q[4], vmask<A> const& ok, vfloat<A> const& t,
-                                   vfloat<A> const& u, vfloat<A> const& v, int face, HullAcc<A>& acc) {
-  vfloat<A> s;
-  Vec3<A> uvw;
-  face_point<A>(q, u, v, s, uvw);
+CELLRAY_FORCE_INLINE void hull_add(vmask<A> const& ok, vfloat<A> const& t, vfloat<A> const& s, Vec3<A> const& uvw,
+                                   int face, HullAcc<A>& acc) {
   vmask<A> const new_in = ok && t < acc.t_in;
   vmask<A> const new_out = ok && t > acc.t_out;
   acc.t_in = simd::select(new_in, t, acc.t_in);
@@ -205,6 +206,88 @@ CELLRAY_FORCE_INLINE void hull_add(PatchCorner<A> const q[4], vmask<A> const& ok
   acc.s_out = simd::select(new_out, s, acc.s_out);
   acc.u_out = select<A>(new_out, uvw, acc.u_out);
   acc.face_out = simd::select(simd::to_int_mask(new_out), vint<A>(face), acc.face_out);
+}
+
+/// Records a patch crossing at ray parameter t, patch coordinates (u, v) in
+/// the lanes `ok` into the hull.
+template <class A>
+CELLRAY_FORCE_INLINE void hull_add(PatchCorner<A> const q[4], vmask<A> const& ok, vfloat<A> const& t,
+                                   vfloat<A> const& u, vfloat<A> const& v, int face, HullAcc<A>& acc) {
+  vfloat<A> s;
+  Vec3<A> uvw;
+  face_point<A>(q, u, v, s, uvw);
+  hull_add<A>(ok, t, s, uvw, face, acc);
+}
+
+/// What a face of a collapsed hex is, per lane, from which cycle
+/// neighbours share an id: `triangle` when exactly one pair does (three
+/// distinct corners: a wedge's end, a pyramid's side; three equal pairs
+/// imply the fourth, so "exactly one" is their parity), `collapsed` when
+/// two opposite pairs do (an edge or a point: a wedge's folded side, a
+/// pyramid's top), which no ray crosses through an area.
+template <class A> struct FaceKind {
+  vmask<A> triangle, collapsed;
+};
+
+template <class A> CELLRAY_FORCE_INLINE FaceKind<A> face_kind(PatchCorner<A> const q[4]) {
+  auto const eq = [](vint<A> const& a, vint<A> const& b) { return simd::to_float_mask(a == b); };
+  vmask<A> const e01 = eq(q[0].id, q[1].id), e12 = eq(q[1].id, q[2].id), e23 = eq(q[2].id, q[3].id),
+                 e30 = eq(q[3].id, q[0].id);
+  return {mask_xor<A>(mask_xor<A>(e01, e12), mask_xor<A>(e23, e30)), (e01 && e23) || (e12 && e30)};
+}
+
+/// Crossings of a triangular face (lanes `tri`, see face_kind) into the
+/// hull. The triangle is crossed as a tet crosses its faces
+/// (triangle_crossing, corners in ascending id order), not as a bilinear
+/// patch with two equal corners: which corner a cell repeats depends on how
+/// the cell is listed, so the patches of one triangle differ between its
+/// two cells, while the sorted triangle is the same in both and in a tet
+/// across it. The crossing's (u, v, w) is then the cell's own: on a face
+/// cycle d d' y z with d = d' the face map is (1-b) d + b ((1-a) z + a y),
+/// so b = 1 - lambda_d, a = lambda_y / (lambda_y + lambda_z) (any a at the
+/// apex b = 0, where d and d' are one point).
+template <class A>
+CELLRAY_FORCE_INLINE void triangle_hits(RayBatch<A> const& ray, PatchCorner<A> const q[4], vmask<A> const& tri,
+                                        int face, HullAcc<A>& acc) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  vfloat<A> const zero(0.f), one(1.f), lo(-hex_patch_tolerance), hi(1.f + hex_patch_tolerance);
+  // Turn the cycle so that its repeated pair comes first: d d' y z.
+  PatchCorner<A> c[4] = {q[0], q[1], q[2], q[3]};
+  for (int k = 1; k < 4; ++k) {
+    vmaski<A> const at_k = q[k].id == q[(k + 1) & 3].id;
+    vmask<A> const m = simd::to_float_mask(at_k);
+    for (int j = 0; j < 4; ++j) c[j] = select_corner<A>(m, at_k, q[(k + j) & 3], c[j]);
+  }
+  // d, y, z in ascending id order (three compare-exchanges).
+  PatchCorner<A> r[3] = {c[0], c[2], c[3]};
+  auto order = [&](int i, int j) {
+    vmaski<A> const mi = r[j].id < r[i].id;
+    vmask<A> const m = simd::to_float_mask(mi);
+    PatchCorner<A> const ri = r[i];
+    r[i] = select_corner<A>(m, mi, r[j], r[i]);
+    r[j] = select_corner<A>(m, mi, ri, r[j]);
+  };
+  order(0, 1), order(1, 2), order(0, 1);
+  Vec3<A> const o = ray.origin(), d = ray.dir();
+  Vec3<A> const e1 = r[1].p - r[0].p, e2 = r[2].p - r[0].p;
+  Vec3<A> const n = cross(e1, e2);
+  vfloat<A> const t = dot(n, r[0].p - o) / dot(n, d);
+  TriangleCrossing<A> const x = triangle_crossing<A>(o, d, t, r[0].p, e1, e2, n);
+  // A ray in the plane gives t = +-inf or NaN, a collinear triangle NaN.
+  vmask<A> const ok = tri && simd::abs(t) < vfloat<A>(inf) && x.beta >= lo && x.gamma >= lo && x.beta + x.gamma <= hi;
+  if (simd::none(ok)) return;
+  vfloat<A> const s = x.value(r[0].s, r[1].s, r[2].s);
+  // Barycentric weights of the sorted corners, back to d, y, z by id.
+  vfloat<A> const w[3] = {one - x.beta - x.gamma, x.beta, x.gamma};
+  auto weight_of = [&](vint<A> const& id) {
+    return simd::select(simd::to_float_mask(id == r[0].id), w[0],
+                        simd::select(simd::to_float_mask(id == r[1].id), w[1], w[2]));
+  };
+  vfloat<A> const wy = weight_of(c[2].id), wz = weight_of(c[3].id);
+  vfloat<A> const b = wy + wz;
+  vfloat<A> const a = simd::select(b > vfloat<A>(1e-6f), simd::min(simd::max(wy / b, zero), one), vfloat<A>(0.5f));
+  Vec3<A> const uvw = lerp<A>(lerp<A>(c[0].uvw, c[1].uvw, a), lerp<A>(c[3].uvw, c[2].uvw, a), b);
+  hull_add<A>(ok, t, s, uvw, face, acc);
 }
 
 /// The plane of a face whose canonical corners form a parallelogram:
@@ -259,7 +342,17 @@ CELLRAY_FORCE_INLINE vmask<A> patch_hits(RayBatch<A> const& ray, PatchCorner<A> 
   vfloat<A> const zero(0.f);
   vfloat<A> const lo(-hex_patch_tolerance), hi(1.f + hex_patch_tolerance);
   Vec3<A> const o = ray.origin(), d = ray.dir();
-  FacePlane<A> const F = face_plane<A>(q, o);
+  FacePlane<A> F = face_plane<A>(q, o);
+  FaceKind<A> const kind = face_kind<A>(q);
+  vmask<A> const special = kind.triangle || kind.collapsed;
+  if (simd::any(special)) {
+    if (simd::any(kind.triangle)) triangle_hits<A>(ray, q, kind.triangle, face, acc);
+    // Two equal corners are never a parallelogram (and a collapsed face is
+    // not affine either: the cell's map is singular there).
+    F.para = F.para && !special;
+    if (simd::all(special)) return F.para;
+  }
+  vmask<A> const patch = !F.para && !special;
   if (simd::any(F.para)) {
     vfloat<A> const t = F.t(d);
     vfloat<A> u, v;
@@ -268,9 +361,8 @@ CELLRAY_FORCE_INLINE vmask<A> patch_hits(RayBatch<A> const& ray, PatchCorner<A> 
     // face gives NaN (u, v).
     vmask<A> const ok = F.para && simd::abs(t) < vfloat<A>(inf) && u >= lo && u <= hi && v >= lo && v <= hi;
     if (simd::any(ok)) hull_add<A>(q, ok, t, u, v, face, acc);
-    if (simd::all(F.para)) return F.para;
+    if (simd::none(patch)) return F.para;
   }
-  vmask<A> const patch = !F.para;
   Vec3<A> const e10 = F.e10, e00 = F.e00, e11 = q[2].p - q[1].p, p00 = F.p00;
   Vec3<A> const qn = cross(e10, q[3].p - q[2].p);
   Vec3<A> const p10 = q[1].p - o;

@@ -86,6 +86,28 @@ template <class A> inline TetFace<A> tet_face(CellCorners<A, 4> const& c, int f)
   return F;
 }
 
+/// Where the line o + t d crosses a triangle's plane at t: barycentric
+/// coordinates beta, gamma of corners b = a + e1 and c = a + e2 (n = e1 x
+/// e2). Shared by every kernel that crosses a triangle (a tet's faces, a
+/// wedge's ends, a pyramid's sides) so that, with the corners in ascending
+/// id order, the cells on both sides of a triangle get the same bits.
+template <class A> struct TriangleCrossing {
+  vfloat<A> beta, gamma;
+  /// The linear interpolant of the corner values sa, sb, sc.
+  vfloat<A> value(vfloat<A> const& sa, vfloat<A> const& sb, vfloat<A> const& sc) const {
+    return sa + beta * (sb - sa) + gamma * (sc - sa);
+  }
+};
+
+template <class A>
+CELLRAY_FORCE_INLINE TriangleCrossing<A> triangle_crossing(Vec3<A> const& o, Vec3<A> const& d, vfloat<A> const& t,
+                                                           Vec3<A> const& a, Vec3<A> const& e1, Vec3<A> const& e2,
+                                                           Vec3<A> const& n) {
+  Vec3<A> const rel = (o + t * d) - a;
+  vfloat<A> const nn = dot(n, n);
+  return {dot(cross(rel, e2), n) / nn, dot(cross(e1, rel), n) / nn};
+}
+
 template <class A> inline vmask<A> mask_xor(vmask<A> const& a, vmask<A> const& b) { return (a && !b) || (!a && b); }
 
 template <class A> inline vfloat<A> clamp01(vfloat<A> const& x) {
@@ -232,13 +254,9 @@ inline CellClip<A> clip_tet_window(RayBatch<A> const& ray, CellCorners<A, 4> con
     in_taken = in_taken || new_in[f], out_taken = out_taken || new_out[f];
     if (simd::none(is_in || is_out)) continue;
     // The value where the line crosses the plane, from this face's corners only.
-    Vec3<A> const& a = p[isa_detail::tet_faces[f][0]];
-    Vec3<A> const rel = (o + t[f] * d) - a;
-    vfloat<A> const nn = dot(n[f], n[f]);
-    vfloat<A> const beta = dot(cross(rel, e2[f]), n[f]) / nn;
-    vfloat<A> const gamma = dot(cross(e1[f], rel), n[f]) / nn;
-    vfloat<A> const sa = c.s[isa_detail::tet_faces[f][0]];
-    vfloat<A> const s = sa + beta * (c.s[isa_detail::tet_faces[f][1]] - sa) + gamma * (c.s[isa_detail::tet_faces[f][2]] - sa);
+    int const* fc = isa_detail::tet_faces[f];
+    isa_detail::TriangleCrossing<A> const x = isa_detail::triangle_crossing<A>(o, d, t[f], p[fc[0]], e1[f], e2[f], n[f]);
+    vfloat<A> const s = x.value(c.s[fc[0]], c.s[fc[1]], c.s[fc[2]]);
     r.s_in = simd::select(is_in, s, r.s_in);
     r.s_out = simd::select(is_out, s, r.s_out);
   }
