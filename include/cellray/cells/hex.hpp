@@ -13,9 +13,10 @@
 // coordinates and value bit for bit. A face with three distinct corners (a
 // wedge's end or a pyramid's side, read as a collapsed hex) is crossed as a
 // tet crosses its faces instead, the plane through its corners in ascending
-// id order (triangle_hits): the bits then agree with any cell across it,
-// whichever vertex that cell repeats, and with a tet. A ray meeting a patch more than twice in
-// total (non-convex hex with strongly curved faces) gets the hull of its
+// id order (add_triangle_faces): the bits then agree with any cell across it,
+// whichever vertex that cell repeats, and with a tet; a face collapsed to an
+// edge or a point is skipped. A ray meeting a patch more than twice in total
+// (non-convex hex with strongly curved faces) gets the hull of its
 // crossings as one interval: that hull covers part of the neighbour across
 // the curved face, where both cells then report (a clip overlap, and an iso
 // crossing there seen twice; 2 of 60 face rays on the generated hexes with
@@ -236,21 +237,54 @@ template <class A> CELLRAY_FORCE_INLINE FaceKind<A> face_kind(PatchCorner<A> con
   return {mask_xor<A>(mask_xor<A>(e01, e12), mask_xor<A>(e23, e30)), (e01 && e23) || (e12 && e30)};
 }
 
-/// Crossings of a triangular face (lanes `tri`, see face_kind) into the
-/// hull. The triangle is crossed as a tet crosses its faces
-/// (triangle_crossing, corners in ascending id order), not as a bilinear
-/// patch with two equal corners: which corner a cell repeats depends on how
-/// the cell is listed, so the patches of one triangle differ between its
-/// two cells, while the sorted triangle is the same in both and in a tet
-/// across it. The crossing's (u, v, w) is then the cell's own: on a face
-/// cycle d d' y z with d = d' the face map is (1-b) d + b ((1-a) z + a y),
-/// so b = 1 - lambda_d, a = lambda_y / (lambda_y + lambda_z) (any a at the
-/// apex b = 0, where d and d' are one point).
-template <class A>
-CELLRAY_FORCE_INLINE void triangle_hits(RayBatch<A> const& ray, PatchCorner<A> const q[4], vmask<A> const& tri,
-                                        int face, HullAcc<A>& acc) {
+/// One face's crossing per lane, for the hull (hull_add).
+template <class A> struct FaceHit {
+  vmask<A> ok;
+  vfloat<A> t, s;
+  Vec3<A> uvw;
+};
+
+/// The crossing of a triangular face. The triangle is crossed
+/// as a tet crosses its faces (triangle_crossing; `r`: its corners in
+/// ascending id order), not as a bilinear patch with two equal corners:
+/// which corner a cell repeats depends on how the cell is listed, so the
+/// patches of one triangle differ between its two cells, while the sorted
+/// triangle is the same in both and in a tet across it. The crossing's
+/// (u, v, w) is then the cell's own: on the face cycle d d' y z with d = d'
+/// (corner coordinates `u`), the face map is (1-b) d + b ((1-a) z + a y), so
+/// b = lambda_y + lambda_z, a = lambda_y / b (any a at the apex b = 0, where
+/// d and d' are one point). `weights_yz(w, wy, wz)` picks lambda_y and
+/// lambda_z from the sorted corners' weights w.
+template <class A, class WeightsYZ>
+CELLRAY_FORCE_INLINE FaceHit<A> triangle_hit(RayBatch<A> const& ray, Vec3<A> const r[3], vfloat<A> const rs[3],
+                                             Vec3<A> const u[4], vmask<A> const& lanes, WeightsYZ const& weights_yz) {
   constexpr float inf = std::numeric_limits<float>::infinity();
   vfloat<A> const zero(0.f), one(1.f), lo(-hex_patch_tolerance), hi(1.f + hex_patch_tolerance);
+  Vec3<A> const o = ray.origin(), d = ray.dir();
+  Vec3<A> const e1 = r[1] - r[0], e2 = r[2] - r[0];
+  Vec3<A> const n = cross(e1, e2);
+  vfloat<A> const t = dot(n, r[0] - o) / dot(n, d);
+  TriangleCrossing<A> const x = triangle_crossing<A>(o, d, t, r[0], e1, e2, n);
+  // A ray in the plane gives t = +-inf or NaN, a collinear triangle NaN.
+  vmask<A> const ok = lanes && simd::abs(t) < vfloat<A>(inf) && x.beta >= lo && x.gamma >= lo && x.beta + x.gamma <= hi;
+  if (simd::none(ok)) return {ok, t, zero, {zero, zero, zero}};
+  vfloat<A> const w[3] = {one - x.beta - x.gamma, x.beta, x.gamma};
+  vfloat<A> wy, wz;
+  weights_yz(w, wy, wz);
+  vfloat<A> const b = wy + wz;
+  vfloat<A> const a = simd::select(b > vfloat<A>(1e-6f), simd::min(simd::max(wy / b, zero), one), vfloat<A>(0.5f));
+  return {ok, t, x.value(rs[0], rs[1], rs[2]), lerp<A>(lerp<A>(u[0], u[1], a), lerp<A>(u[3], u[2], a), b)};
+}
+
+template <class A> inline Vec3<A> corner_uvw(int i) {
+  return {vfloat<A>(hex_corner_uvw[i][0]), vfloat<A>(hex_corner_uvw[i][1]), vfloat<A>(hex_corner_uvw[i][2])};
+}
+
+/// The crossing of face f of the lanes `tri`, a triangle in every one of
+/// them (see face_kind), whose corners may differ between lanes: the
+/// repeated pair and the id order found per lane by selects.
+template <class A>
+CELLRAY_FORCE_INLINE FaceHit<A> lane_triangle_hit(RayBatch<A> const& ray, PatchCorner<A> const q[4], vmask<A> const& tri) {
   // Turn the cycle so that its repeated pair comes first: d d' y z.
   PatchCorner<A> c[4] = {q[0], q[1], q[2], q[3]};
   for (int k = 1; k < 4; ++k) {
@@ -268,26 +302,78 @@ CELLRAY_FORCE_INLINE void triangle_hits(RayBatch<A> const& ray, PatchCorner<A> c
     r[j] = select_corner<A>(m, mi, ri, r[j]);
   };
   order(0, 1), order(1, 2), order(0, 1);
-  Vec3<A> const o = ray.origin(), d = ray.dir();
-  Vec3<A> const e1 = r[1].p - r[0].p, e2 = r[2].p - r[0].p;
-  Vec3<A> const n = cross(e1, e2);
-  vfloat<A> const t = dot(n, r[0].p - o) / dot(n, d);
-  TriangleCrossing<A> const x = triangle_crossing<A>(o, d, t, r[0].p, e1, e2, n);
-  // A ray in the plane gives t = +-inf or NaN, a collinear triangle NaN.
-  vmask<A> const ok = tri && simd::abs(t) < vfloat<A>(inf) && x.beta >= lo && x.gamma >= lo && x.beta + x.gamma <= hi;
-  if (simd::none(ok)) return;
-  vfloat<A> const s = x.value(r[0].s, r[1].s, r[2].s);
-  // Barycentric weights of the sorted corners, back to d, y, z by id.
-  vfloat<A> const w[3] = {one - x.beta - x.gamma, x.beta, x.gamma};
-  auto weight_of = [&](vint<A> const& id) {
-    return simd::select(simd::to_float_mask(id == r[0].id), w[0],
-                        simd::select(simd::to_float_mask(id == r[1].id), w[1], w[2]));
+  Vec3<A> const rp[3] = {r[0].p, r[1].p, r[2].p}, u[4] = {c[0].uvw, c[1].uvw, c[2].uvw, c[3].uvw};
+  vfloat<A> const rs[3] = {r[0].s, r[1].s, r[2].s};
+  auto weights_yz = [&](vfloat<A> const w[3], vfloat<A>& wy, vfloat<A>& wz) {
+    auto weight_of = [&](vint<A> const& id) {
+      return simd::select(simd::to_float_mask(id == r[0].id), w[0],
+                          simd::select(simd::to_float_mask(id == r[1].id), w[1], w[2]));
+    };
+    wy = weight_of(c[2].id), wz = weight_of(c[3].id);
   };
-  vfloat<A> const wy = weight_of(c[2].id), wz = weight_of(c[3].id);
-  vfloat<A> const b = wy + wz;
-  vfloat<A> const a = simd::select(b > vfloat<A>(1e-6f), simd::min(simd::max(wy / b, zero), one), vfloat<A>(0.5f));
-  Vec3<A> const uvw = lerp<A>(lerp<A>(c[0].uvw, c[1].uvw, a), lerp<A>(c[3].uvw, c[2].uvw, a), b);
-  hull_add<A>(ok, t, s, uvw, face, acc);
+  return triangle_hit<A>(ray, rp, rs, u, tri, weights_yz);
+}
+
+/// The crossing of face f, a triangle with the repeated pair at cycle
+/// positions k, k+1, in a cell every lane shares (CellCorners::uniform):
+/// the corner order decided once in scalar code, the same bits as
+/// lane_triangle_hit.
+template <class A>
+CELLRAY_FORCE_INLINE FaceHit<A> uniform_triangle_hit(RayBatch<A> const& ray, CellCorners<A, 8> const& cell, int f, int k) {
+  int const* q = hex_faces[f];
+  int32_t const* key = cell.uniform_key;
+  int const cyc[4] = {q[k], q[(k + 1) & 3], q[(k + 2) & 3], q[(k + 3) & 3]};  // d d' y z
+  int idx[3] = {cyc[0], cyc[2], cyc[3]};
+  auto order = [&](int i, int j) {
+    if (key[idx[j]] < key[idx[i]]) std::swap(idx[i], idx[j]);
+  };
+  order(0, 1), order(1, 2), order(0, 1);
+  int const slot_y = idx[0] == cyc[2] ? 0 : idx[1] == cyc[2] ? 1 : 2;
+  int const slot_z = idx[0] == cyc[3] ? 0 : idx[1] == cyc[3] ? 1 : 2;
+  Vec3<A> const rp[3] = {cell.p(idx[0]), cell.p(idx[1]), cell.p(idx[2])};
+  vfloat<A> const rs[3] = {cell.s[idx[0]], cell.s[idx[1]], cell.s[idx[2]]};
+  Vec3<A> const u[4] = {corner_uvw<A>(cyc[0]), corner_uvw<A>(cyc[1]), corner_uvw<A>(cyc[2]), corner_uvw<A>(cyc[3])};
+  auto weights_yz = [&](vfloat<A> const w[3], vfloat<A>& wy, vfloat<A>& wz) { wy = w[slot_y], wz = w[slot_z]; };
+  return triangle_hit<A>(ray, rp, rs, u, simd::all_lanes<A>(), weights_yz);
+}
+
+/// What face f of a cell every lane shares is, in scalar code from its
+/// ordering keys: 0 four distinct corners (or a b a c, clipped as the patch
+/// it is), 1 a triangle, 2 collapsed (see FaceKind); `k` the position of a
+/// triangle's repeated pair.
+inline int uniform_face_kind(int32_t const* key, int f, int& k) {
+  int const* q = hex_faces[f];
+  bool e[4];
+  for (int j = 0; j < 4; ++j) e[j] = key[q[j]] == key[q[(j + 1) & 3]];
+  int const pairs = int(e[0]) + int(e[1]) + int(e[2]) + int(e[3]);
+  if (CELLRAY_LIKELY(pairs == 0)) return 0;
+  if ((e[0] && e[2]) || (e[1] && e[3])) return 2;
+  k = e[0] ? 0 : e[1] ? 1 : e[2] ? 2 : 3;
+  return pairs == 1 ? 1 : 0;
+}
+
+/// The triangular faces `faces` (bit f: face f is a triangle in some lane)
+/// into the hull, after the quadrilaterals: out of line, with the hull by
+/// value, so that the common path (hexahedra: no triangles) keeps its
+/// accumulator in registers and its unrolled face loop small.
+template <class A>
+CELLRAY_NOINLINE HullAcc<A> add_triangle_faces(RayBatch<A> const& ray, CellCorners<A, 8> const& c, unsigned faces,
+                                               HullAcc<A> acc) {
+  for (int f = 0; f < 6; ++f) {
+    if (!((faces >> f) & 1u)) continue;
+    FaceHit<A> h;
+    if (c.uniform) {
+      int k = 0;
+      uniform_face_kind(c.uniform_key, f, k);
+      h = uniform_triangle_hit<A>(ray, c, f, k);
+    } else {
+      PatchCorner<A> q[4];
+      canonical_patch(c, f, q);
+      h = lane_triangle_hit<A>(ray, q, face_kind<A>(q).triangle);
+    }
+    if (simd::any(h.ok)) hull_add<A>(h.ok, h.t, h.s, h.uvw, f, acc);
+  }
+  return acc;
 }
 
 /// The plane of a face whose canonical corners form a parallelogram:
@@ -335,24 +421,21 @@ template <class A> CELLRAY_FORCE_INLINE FacePlane<A> face_plane(PatchCorner<A> c
 /// Reshetov, "Cool Patches" (Ray Tracing Gems, 2019): a quadratic in u, up
 /// to two roots. The choice is a function of the canonical corners only, so
 /// the two cells of a shared face take the same path and get the same bits.
+///
+/// `skip`: lanes whose face is a triangle or collapsed (face_kind), which
+/// add_triangle_faces handles or which add nothing.
 template <class A>
 CELLRAY_FORCE_INLINE vmask<A> patch_hits(RayBatch<A> const& ray, PatchCorner<A> const q[4], int face,
-                                         HullAcc<A>& acc) {
+                                         HullAcc<A>& acc, vmask<A> const& skip) {
   constexpr float inf = std::numeric_limits<float>::infinity();
   vfloat<A> const zero(0.f);
   vfloat<A> const lo(-hex_patch_tolerance), hi(1.f + hex_patch_tolerance);
   Vec3<A> const o = ray.origin(), d = ray.dir();
   FacePlane<A> F = face_plane<A>(q, o);
-  FaceKind<A> const kind = face_kind<A>(q);
-  vmask<A> const special = kind.triangle || kind.collapsed;
-  if (simd::any(special)) {
-    if (simd::any(kind.triangle)) triangle_hits<A>(ray, q, kind.triangle, face, acc);
-    // Two equal corners are never a parallelogram (and a collapsed face is
-    // not affine either: the cell's map is singular there).
-    F.para = F.para && !special;
-    if (simd::all(special)) return F.para;
-  }
-  vmask<A> const patch = !F.para && !special;
+  // Two equal corners are never a parallelogram (and a collapsed face is
+  // not affine either: the cell's map is singular there).
+  F.para = F.para && !skip;
+  vmask<A> const patch = !F.para && !skip;
   if (simd::any(F.para)) {
     vfloat<A> const t = F.t(d);
     vfloat<A> u, v;
@@ -490,12 +573,31 @@ inline HexClip<A> clip_hex_window(RayBatch<A> const& ray, CellCorners<A, 8> cons
   vfloat<A> const zero(0.f);
   isa_detail::HullAcc<A> acc{vfloat<A>(inf), vfloat<A>(-inf), zero, zero, {zero, zero, zero}, {zero, zero, zero}, vint<A>(0)};
   vmask<A> affine = simd::all_lanes<A>();
+  unsigned triangles = 0;  // bit f: face f is a triangle in some lane
+  // Unrolled, so that each face's corner indices are constants.
+#pragma GCC unroll 6
   for (int f = 0; f < 6; ++f) {
+    vmask<A> skip = simd::no_lanes<A>();
+    if (c.uniform) {
+      int k = 0;
+      int const kind = isa_detail::uniform_face_kind(c.uniform_key, f, k);
+      if (CELLRAY_UNLIKELY(kind != 0)) {
+        triangles |= unsigned(kind == 1) << f;
+        affine = simd::no_lanes<A>();  // the map is singular on a collapsed face
+        continue;
+      }
+    }
     isa_detail::PatchCorner<A> q[4];
     isa_detail::canonical_patch(c, f, q);
-    vmask<A> const para = isa_detail::patch_hits(ray, q, f, acc);  // not inside &&: for scalar that short-circuits
+    if (!c.uniform) {
+      isa_detail::FaceKind<A> const kind = isa_detail::face_kind<A>(q);
+      skip = kind.triangle || kind.collapsed;
+      if (CELLRAY_UNLIKELY(simd::any(kind.triangle))) triangles |= 1u << f;
+    }
+    vmask<A> const para = isa_detail::patch_hits(ray, q, f, acc, skip);  // not inside &&: for scalar that short-circuits
     affine = affine && para;
   }
+  if (CELLRAY_UNLIKELY(triangles != 0)) acc = isa_detail::add_triangle_faces(ray, c, triangles, acc);
   HexClip<A> r;
   r.t_in = acc.t_in, r.t_out = acc.t_out, r.s_in = acc.s_in, r.s_out = acc.s_out;
   r.u_in = acc.u_in, r.u_out = acc.u_out;

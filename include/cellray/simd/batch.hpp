@@ -28,6 +28,26 @@
 #endif
 #endif
 
+/// For rare paths inside hot kernels (a hex's triangular faces): kept out
+/// of line so that the common path's unrolled loop stays small.
+#ifndef CELLRAY_NOINLINE
+#if defined(__GNUC__)
+#define CELLRAY_NOINLINE __attribute__((noinline))
+#else
+#define CELLRAY_NOINLINE
+#endif
+#endif
+
+/// A branch the common case never takes (GCC then keeps the values live
+/// across the rare path's out-of-line call in registers on the common one).
+#if defined(__GNUC__)
+#define CELLRAY_UNLIKELY(x) __builtin_expect(!!(x), 0)
+#define CELLRAY_LIKELY(x) __builtin_expect(!!(x), 1)
+#else
+#define CELLRAY_UNLIKELY(x) (x)
+#define CELLRAY_LIKELY(x) (x)
+#endif
+
 namespace cellray {
 inline namespace CELLRAY_ISA_NS {
 
