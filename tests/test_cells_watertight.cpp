@@ -422,7 +422,7 @@ TEST_CASE("watertight: generated tets and hexes", "[cells][watertight][isa]") {
 // (mesh/vtk_cells.hpp): a quad between a hex and a wedge or a pyramid's base
 // is one bilinear patch from both sides, a triangle (a face with two equal
 // corners: wedge ends) one plane through its corners in ascending id order
-// (cells/hex.hpp triangle_hits), so the guarantees of the hexes above hold
+// (cells/hex.hpp add_triangle_faces), so the guarantees of the hexes above hold
 // across the types, exactly. Twice: listed as generate_hex_family lists
 // them (every cell then turned by rotated_hexes, which keeps the vertex a
 // wedge repeats), and with every wedge relisted from another corner, so
@@ -448,8 +448,9 @@ TEST_CASE("watertight: hexes, wedges and pyramids across their shared faces", "[
 // and its entry into the other cell are the same t and the same value, bit
 // for bit, however the collapsed cell is listed (which vertex it repeats,
 // which corner it starts from) and whatever the vertex ids' order, in SPMD
-// and packet loads. Rays cross the triangle's interior, some within 1e-3 of
-// an edge (barycentric).
+// and packet loads. Rays cross the triangle's interior, a quarter of them
+// 1e-3 to 2e-3 (barycentric) from an edge: closer, within the hull's patch
+// tolerance, the side face's crossing may come first, by design.
 TEST_CASE("watertight: a triangle shared by a tet and a wedge or a pyramid", "[cells][watertight][isa]") {
   CellRunner const run{false, test::isa()};
   Rng rng(23);

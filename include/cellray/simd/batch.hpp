@@ -38,8 +38,7 @@
 #endif
 #endif
 
-/// A branch the common case never takes (GCC then keeps the values live
-/// across the rare path's out-of-line call in registers on the common one).
+/// Branch hints: the rare side is laid out off the hot path.
 #if defined(__GNUC__)
 #define CELLRAY_UNLIKELY(x) __builtin_expect(!!(x), 0)
 #define CELLRAY_LIKELY(x) __builtin_expect(!!(x), 1)
