@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <cstdio>
 #include <filesystem>
@@ -48,6 +49,7 @@
 #include <cellray/render/transfer_function.hpp>
 
 #include "cli_common.hpp"
+#include "exodus.hpp"
 #include "framing.hpp"
 #include "legend.hpp"
 
@@ -476,6 +478,42 @@ std::vector<std::string> cell_array_names(Loaded const& l) {
   return n;
 }
 
+/// A file with no point array still renders (a user opening a solver's
+/// cell-centred output or a bare mesh expects a picture, not a flag to
+/// look up): the first cell array whose values vary, averaged to the
+/// vertices as --cell-to-point does, else the coordinate along the longest
+/// side of the bounds (a geometry-only mesh: iso shows a cut across it,
+/// DVR the shape). Says which on stderr.
+void add_default_field(UnstructuredGrid& g, std::string const& name) {
+  for (CellArray const& c : g.cell_arrays) {
+    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+    for (auto const* v : {&c.tet_values, &c.hex_values})
+      for (float x : *v)
+        if (std::isfinite(x)) lo = std::min(lo, x), hi = std::max(hi, x);
+    if (!(hi > lo)) continue;
+    std::cerr << "cellray-render: note: " << name << " has no point arrays; rendering cell array '" << c.name
+              << "' averaged to the vertices (as --cell-to-point '" << c.name << "')\n";
+    g.cell_to_point(c.name);
+    return;
+  }
+  glm::vec3 lo(std::numeric_limits<float>::infinity()), hi(-std::numeric_limits<float>::infinity());
+  for (uint64_t v = 0; v < g.vertex_count(); ++v) {
+    glm::vec3 const p(g.xyz[3 * v], g.xyz[3 * v + 1], g.xyz[3 * v + 2]);
+    lo = glm::min(lo, p), hi = glm::max(hi, p);
+  }
+  glm::vec3 const size = hi - lo;
+  int const axis = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;
+  PointArray a;
+  a.name = std::string(1, "xyz"[axis]);
+  a.values.resize(g.vertex_count());
+  for (uint64_t v = 0; v < g.vertex_count(); ++v) a.values[v] = g.xyz[3 * v + uint64_t(axis)];
+  std::cerr << "cellray-render: note: " << name << " has no data array that varies"
+            << (g.cell_arrays.empty() ? "" : " (its cell arrays are constant)") << "; rendering the " << a.name
+            << " coordinate (the longest side) as point array '" << a.name << "'\n";
+  g.report.arrays_read.push_back("point '" + a.name + "' (the vertices' " + a.name + " coordinate: no data array varies)");
+  g.point_arrays.push_back(std::move(a));
+}
+
 void load(Options const& o, Loaded& l) {
   if (o.mesh_path.empty()) {
     l.name = "default scene";
@@ -493,7 +531,16 @@ void load(Options const& o, Loaded& l) {
   ReadOptions ro;
   ro.skip_unsupported_cells = o.skip_unsupported;
   try {
-    l.grid = read_mesh(o.mesh_path, ro);
+    if (cli::is_exodus_path(o.mesh_path)) {
+#ifdef CELLRAY_WITH_EXODUS
+      l.grid = cli::read_exodus(o.mesh_path, ro);
+#else
+      throw IoError(o.mesh_path + ": cellray-render was built without the Exodus II library (Debian libexodusii-dev; "
+                    "scripts/install-deps.sh installs it)");
+#endif
+    } else {
+      l.grid = read_mesh(o.mesh_path, ro);
+    }
   } catch (IoError const& e) {
     // The reader names its option; tell the flag instead.
     if (!o.skip_unsupported && std::string(e.what()).find("unsupported cells") != std::string::npos)
@@ -513,6 +560,7 @@ void load(Options const& o, Loaded& l) {
     if (g.point_array(target)) target += "@cells";
     g.cell_to_point(o.cell_to_point, target);
   }
+  if (g.point_arrays.empty() && !g.empty()) add_default_field(g, l.name);
   if (g.empty())
     throw InvalidMesh(l.name + " holds no tetrahedra or hexahedra" +
                       (g.report.skipped_count() ? " (all cells were skipped as unsupported)" : ""));

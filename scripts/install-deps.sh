@@ -5,6 +5,8 @@ set -euo pipefail
 pkgs=(cmake make g++ clang-14 binutils libxsimd-dev libtbb-dev libglm-dev libstb-dev catch2
       libbenchmark-dev libpugixml-dev zlib1g-dev libcli11-dev nlohmann-json3-dev fonts-dejavu-core
       libembree-dev
+      # cellray-render's Exodus II reader (.ex2)
+      libexodusii-dev
       # cellray-mpi-render and its tests: MPI + IceT 2.2 inside ParaView 5.11 (apt: ~2.5 min)
       libopenmpi-dev openmpi-bin paraview-dev "$@")
 missing=()

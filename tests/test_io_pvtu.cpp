@@ -176,7 +176,7 @@ TEST_CASE("read_mesh reads a .pvtu, read_mesh_from_memory refuses one", "[io][pv
   CHECK(g.report.format.rfind("VTK XML PUnstructuredGrid, 2 pieces", 0) == 0);
   CHECK_THROWS_WITH(read_mesh_from_memory(index, "two.pvtu"),
                     Catch::StartsWith("two.pvtu: ") && Catch::Contains("must be read from disk"));
-  CHECK_THROWS_WITH(read_mesh(dir + "/x.pvtx"), Catch::Contains("(cellray reads .vtk, .vtu and .pvtu)"));
+  CHECK_THROWS_WITH(read_mesh(dir + "/x.pvtx"), Catch::Contains("(cellray reads .vtk, .vtu, .pvtu and .msh)"));
   // ParaView 5.6 and later put the pieces in a folder named like the .pvtu.
   std::filesystem::create_directories(dir + "/sub");
   write_text(dir + "/sub/c.vtu", vtu_piece);

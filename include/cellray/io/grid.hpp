@@ -135,10 +135,16 @@ struct ReadReport {
   uint64_t polyhedra_split = 0, polyhedron_tets = 0, polyhedron_pyramids = 0;
   std::vector<std::string> arrays_read;     ///< "point 'T'", "cell 'EQPS'", "point 'DISPL' (3 components, magnitude)"
   std::vector<std::string> arrays_ignored;  ///< with the reason, e.g. "field 'TimeValue' (dataset field data)"
+  /// Whatever else a reader passed over, with the reason: e.g. a gmsh file's
+  /// "15976 triangle elements (gmsh type 2): not volume cells".
+  std::vector<std::string> other_ignored;
+  /// Cells of a non-VTK format's types dropped by the skip option (VTK
+  /// types are counted in `cells_skipped`); listed in `other_ignored` too.
+  uint64_t other_cells_skipped = 0;
 
   /// Cells dropped in total (all types).
   uint64_t skipped_count() const {
-    uint64_t n = 0;
+    uint64_t n = other_cells_skipped;
     for (auto const& [type, count] : cells_skipped) n += count;
     return n;
   }
@@ -155,6 +161,7 @@ struct ReadReport {
     for (auto const& [type, count] : cells_skipped) s << "\n  skipped " << count << " " << vtk_cell_type_name(type);
     for (auto const& a : arrays_read) s << "\n  read " << a;
     for (auto const& a : arrays_ignored) s << "\n  ignored " << a;
+    for (auto const& a : other_ignored) s << "\n  ignored " << a;
     return s.str();
   }
 };

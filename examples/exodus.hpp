@@ -1,0 +1,175 @@
+#pragma once
+// Exodus II (".ex2", ".exo", ".e": Sandia's finite-element format, netCDF
+// inside) for cellray-render, through the Exodus library itself (Debian
+// libexodusii-dev; examples/CMakeLists.txt builds this in when it is found).
+// The library stays out of cellray's own headers: hosts that read Exodus
+// have their own reader and hand cellray the arrays.
+//
+// Kept: every element block of volume elements (TETRA*, HEX*, WEDGE*,
+// PYRAMID*, higher-order ones as their corner cells; the corner order is
+// VTK's, as vtkExodusIIReader reads them), nodal variables as point arrays
+// and element variables as cell arrays, at the first time step (ParaView
+// opens a file there too). Blocks of other elements (shells, beams,
+// spheres) are listed in the report as ignored; what cellray-render cannot
+// read is an IoError naming the file and the block.
+
+#include <algorithm>
+#include <cctype>
+#include <cstdint>
+#include <cstdlib>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <cellray/io/detail.hpp>
+
+#ifdef CELLRAY_WITH_EXODUS
+#include <exodusII.h>
+#endif
+
+namespace cellray::cli {
+
+/// True for the extensions read_exodus reads.
+inline bool is_exodus_path(std::string const& path) {
+  size_t const dot = path.find_last_of("./");
+  if (dot == std::string::npos || path[dot] != '.') return false;
+  std::string const ext = path.substr(dot);
+  return io::iequals(ext, ".ex2") || io::iequals(ext, ".exo") || io::iequals(ext, ".e") || io::iequals(ext, ".g");
+}
+
+#ifdef CELLRAY_WITH_EXODUS
+
+/// VTK's linear cell type for an Exodus element type name (case-insensitive,
+/// "HEX8", "hex", "TETRA10", ...), and the corners it keeps; 0 when the
+/// element is not a volume cell cellray reads.
+inline int exodus_vtk_type(std::string name, int& corners, bool& higher_order) {
+  for (char& c : name) c = char(std::toupper(static_cast<unsigned char>(c)));
+  auto starts = [&](char const* p) { return name.rfind(p, 0) == 0; };
+  auto nodes = [&](size_t prefix) { return prefix < name.size() ? std::atoi(name.c_str() + prefix) : 0; };
+  if (starts("TETRA")) return corners = 4, higher_order = nodes(5) > 4, 10;
+  if (starts("TET")) return corners = 4, higher_order = nodes(3) > 4, 10;
+  if (starts("HEX")) return corners = 8, higher_order = nodes(3) > 8, 12;
+  if (starts("WEDGE")) return corners = 6, higher_order = nodes(5) > 6, 13;
+  if (starts("PYRAMID")) return corners = 5, higher_order = nodes(7) > 5, 14;
+  corners = 0;
+  return 0;
+}
+
+/// Reads an Exodus II file (see the file comment).
+/// @throws IoError naming the file (and the block) on any problem.
+inline UnstructuredGrid read_exodus(std::string const& path, ReadOptions const& opts = {}) {
+  io::require_regular_file(path);
+  int word = int(sizeof(double)), io_word = 0;
+  float version = 0.f;
+  ex_opts(0);  // errors come back as return codes, not messages on stderr
+  int const exo = ex_open(path.c_str(), EX_READ, &word, &io_word, &version);
+  if (exo < 0) throw IoError(path + ": not an Exodus II file the Exodus library can open (error " + std::to_string(exo) + ")");
+  struct Closer {
+    int id;
+    ~Closer() { ex_close(id); }
+  } const closer{exo};
+  auto check = [&](int status, std::string const& what) {
+    if (status < 0) throw IoError(path + ": reading " + what + " failed (Exodus error " + std::to_string(status) + ")");
+  };
+  char title[MAX_LINE_LENGTH + 1] = {};
+  int dim = 0, nnodes = 0, nelem = 0, nblocks = 0, nnode_sets = 0, nside_sets = 0;
+  check(ex_get_init(exo, title, &dim, &nnodes, &nelem, &nblocks, &nnode_sets, &nside_sets), "the header");
+  if (dim != 3) throw IoError(path + ": a " + std::to_string(dim) + "D mesh (cellray renders 3D volume meshes)");
+
+  UnstructuredGrid grid;
+  grid.report.file = path;
+  grid.report.format = "Exodus II " + std::to_string(version).substr(0, 4);
+  size_t const n = static_cast<size_t>(nnodes);
+  std::vector<double> x(n), y(n), z(n);
+  check(ex_get_coord(exo, x.data(), y.data(), z.data()), "the node coordinates");
+  std::vector<double> xyz(3 * size_t(nnodes));
+  for (size_t i = 0; i < size_t(nnodes); ++i) xyz[3 * i] = x[i], xyz[3 * i + 1] = y[i], xyz[3 * i + 2] = z[i];
+  io::set_positions(grid, io::NumArray::owning(xyz), uint64_t(nnodes));
+
+  std::vector<int> ids(static_cast<size_t>(nblocks));
+  if (nblocks) check(ex_get_ids(exo, EX_ELEM_BLOCK, ids.data()), "the element block ids");
+  int const steps = int(ex_inquire_int(exo, EX_INQ_TIME));
+  int nelem_vars = 0;
+  check(ex_get_variable_param(exo, EX_ELEM_BLOCK, &nelem_vars), "the element variable count");
+  std::vector<int64_t> types, conn;
+  std::vector<std::vector<double>> cell_values(static_cast<size_t>(nelem_vars));
+  uint64_t higher_order = 0;
+  for (int b = 0; b < nblocks; ++b) {
+    char type_name[MAX_STR_LENGTH + 1] = {};
+    int count = 0, per = 0, edges = 0, faces = 0, attrs = 0;
+    std::string const block = "element block " + std::to_string(ids[size_t(b)]);
+    check(ex_get_block(exo, EX_ELEM_BLOCK, ids[size_t(b)], type_name, &count, &per, &edges, &faces, &attrs), block);
+    int corners = 0;
+    bool high = false;
+    int const vtk = exodus_vtk_type(type_name, corners, high);
+    if (!vtk || per < corners) {
+      if (vtk && !opts.skip_unsupported_cells)
+        throw IoError(path + ": " + block + " (" + type_name + ") has " + std::to_string(per) + " nodes per element, needs " +
+                      std::to_string(corners));
+      grid.report.other_ignored.push_back(block + ": " + std::to_string(count) + " " + type_name +
+                                          " elements (not volume cells cellray reads)");
+      continue;
+    }
+    std::vector<int> c(size_t(count) * size_t(per));
+    if (count) check(ex_get_conn(exo, EX_ELEM_BLOCK, ids[size_t(b)], c.data(), nullptr, nullptr), block + "'s connectivity");
+    for (int e = 0; e < count; ++e) {
+      types.push_back(vtk);
+      for (int k = 0; k < corners; ++k) conn.push_back(int64_t(c[size_t(e) * size_t(per) + size_t(k)]) - 1);  // 1-based
+    }
+    higher_order += high ? uint64_t(count) : 0;
+    for (int v = 0; v < nelem_vars; ++v) {
+      std::vector<double> vals(size_t(count), std::numeric_limits<double>::quiet_NaN());
+      if (steps > 0 && count) {
+        // A variable a block does not have (the truth table) reads as an error: NaN there.
+        if (ex_get_var(exo, 1, EX_ELEM_BLOCK, v + 1, ids[size_t(b)], count, vals.data()) < 0)
+          std::fill(vals.begin(), vals.end(), std::numeric_limits<double>::quiet_NaN());
+      }
+      cell_values[size_t(v)].insert(cell_values[size_t(v)].end(), vals.begin(), vals.end());
+    }
+  }
+  if (types.empty())
+    throw IoError(path + ": no element block of volume elements (TETRA, HEX, WEDGE or PYRAMID)");
+  uint64_t const ncells = types.size();
+  std::vector<uint64_t> offsets(ncells + 1, 0);
+  for (uint64_t i = 0; i < ncells; ++i) offsets[i + 1] = offsets[i] + (types[i] == 10 ? 4 : types[i] == 12 ? 8 : types[i] == 13 ? 6 : 5);
+  io::CellLocator where;
+  where.type = [&](uint64_t c) { return path + ": cell " + std::to_string(c) + ": "; };
+  where.conn = [&](uint64_t k) { return path + ": connectivity entry " + std::to_string(k) + ": "; };
+  io::CellKinds const kinds = io::build_cells(
+      ncells, io::NumArray::owning(types), io::NumArray::owning(conn),
+      [&offsets](uint64_t c) { return std::pair<uint64_t, uint64_t>(offsets[c], offsets[c + 1]); }, uint64_t(nnodes), opts,
+      grid, where);
+  grid.report.reduced_to_linear += higher_order;
+
+  auto names = [&](ex_entity_type what, int n) {
+    int const len = std::max<int>(int(ex_inquire_int(exo, EX_INQ_DB_MAX_USED_NAME_LENGTH)), MAX_STR_LENGTH);
+    ex_set_max_name_length(exo, len);
+    std::vector<std::vector<char>> store(size_t(n), std::vector<char>(size_t(len) + 1, '\0'));
+    std::vector<char*> ptrs;
+    for (auto& s : store) ptrs.push_back(s.data());
+    if (n) check(ex_get_variable_names(exo, what, n, ptrs.data()), "the variable names");
+    std::vector<std::string> out;
+    for (auto& s : store) out.emplace_back(s.data());
+    return out;
+  };
+  int nnode_vars = 0;
+  check(ex_get_variable_param(exo, EX_NODAL, &nnode_vars), "the nodal variable count");
+  std::vector<std::string> const node_names = names(EX_NODAL, nnode_vars);
+  for (int v = 0; v < nnode_vars && steps > 0; ++v) {
+    std::vector<double> vals(n);
+    check(ex_get_var(exo, 1, EX_NODAL, v + 1, 1, nnodes, vals.data()), "nodal variable '" + node_names[size_t(v)] + "'");
+    std::vector<float> f(vals.size());
+    for (size_t i = 0; i < vals.size(); ++i) f[i] = io::to_float(vals[i]);
+    io::add_point_array(grid, node_names[size_t(v)], std::move(f), 1);
+  }
+  std::vector<std::string> const elem_names = names(EX_ELEM_BLOCK, nelem_vars);
+  for (int v = 0; v < nelem_vars && steps > 0; ++v)
+    io::add_cell_array(grid, elem_names[size_t(v)], io::NumArray::owning(cell_values[size_t(v)]), 1, kinds);
+  if (steps > 1) grid.report.other_ignored.push_back("time steps 2 to " + std::to_string(steps) + " (the first is read)");
+  if (nnode_sets || nside_sets)
+    grid.report.other_ignored.push_back(std::to_string(nnode_sets) + " node sets and " + std::to_string(nside_sets) + " side sets");
+  return grid;
+}
+#endif  // CELLRAY_WITH_EXODUS
+
+}  // namespace cellray::cli
