@@ -307,8 +307,9 @@ constexpr char const* exit_code_help =
     "Exit codes: 0 success; 1 other error; 2 usage (unknown flag, bad value, unknown array);\n"
     "3 I/O (mesh, transfer function or font file missing, not a regular file, unreadable or malformed -- cells\n"
     "naming points the file lacks, unsupported cells; image not writable: the old image is kept);\n"
-    "4 invalid mesh (fails validation: a non-finite position of a vertex a cell uses; no cells, no point arrays,\n"
-    "no finite value).\n"
+    "4 invalid mesh (fails validation: a non-finite position of a vertex a cell uses; no cells, no finite value).\n"
+    "A file with no point array renders its first cell array whose values vary, averaged to the vertices, else\n"
+    "the coordinate along its longest side (a note on stderr says which).\n"
     "Negative numbers as values work directly (--eye -2,1,3) or with '=' (--eye=-2,1,3).";
 
 void add_options(CLI::App& app, Options& o) {
@@ -1257,8 +1258,9 @@ int main(int argc, char** argv) {
   mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
 #endif
   CLI::App app{
-      "cellray-render: ray traces isosurfaces or a volume (DVR) of an unstructured tet/hex mesh\n"
-      "(legacy .vtk, .vtu or .pvtu) to PNG or PPM; without a mesh, renders a generated scene."};
+      "cellray-render: ray traces isosurfaces or a volume (DVR) of an unstructured mesh (tetrahedra, pyramids,\n"
+      "wedges, hexahedra, polyhedra) from legacy .vtk, .vtu, .pvtu, gmsh .msh or Exodus II .ex2/.exo/.e to PNG\n"
+      "or PPM; without a mesh, renders a generated scene."};
   app.footer(exit_code_help);
   Options o;
   add_options(app, o);

@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer harnesses (clang, ASan + UBSan) and runs each for a
 # bounded time: scripts/fuzz.sh [seconds per harness, default 60] [build dir].
-#   CI:       scripts/fuzz.sh 30            (about 2 minutes of fuzzing)
+#   CI:       scripts/fuzz.sh 20            (four harnesses: under 2 minutes of fuzzing)
 #   Longer:   scripts/fuzz.sh 3600 build-fuzz   (the corpus in the build dir grows across runs)
 # A crash, hang (> 10 s) or out-of-memory (> 2 GB) input is written to
 # <build>/artifacts/<harness>-crash-..., the run stops and this script fails.
 # Make it a regression: copy the file into tests/fuzz/regressions/<harness>/
-# (vtk, vtu or validate), fix the bug, and ctest replays it from then on.
+# (vtk, vtu, msh or validate), fix the bug, and ctest replays it from then on.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
@@ -17,7 +17,7 @@ real=tests/data/real/vtk-data  # the repository's copies of small real files
 # One ISA unit (the widest this CPU runs) keeps the instrumented build short.
 cmake -S tests/fuzz -B "$build" -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCELLRAY_ISAS="${CELLRAY_FUZZ_ISAS:-$(./scripts/widest-isa.sh)}" >/dev/null
-cmake --build "$build" -j"$(nproc)" --target fuzz_vtk_legacy fuzz_vtu fuzz_validate
+cmake --build "$build" -j"$(nproc)" --target fuzz_vtk_legacy fuzz_vtu fuzz_gmsh fuzz_validate
 mkdir -p "$build/artifacts"
 
 # run <harness> <kind: vtk|vtu|validate> [extra seed files...]: seeds and
@@ -41,4 +41,5 @@ run() {
 }
 run fuzz_vtk_legacy vtk tests/data/broken/*.vtk tests/cli/data/block*.vtk "$real/tetraMesh.vtk" "$real/post.vtk"
 run fuzz_vtu vtu tests/data/broken/*.vtu "$real/Tetrahedron.vtu" "$real/disk_out_ref.vtu"
+run fuzz_gmsh msh
 run fuzz_validate validate

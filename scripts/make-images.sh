@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 # ../shared/data beside the repository.
 d=${CELLRAY_DATA_DIR:-../shared/data}
 for f in openfoam/component8_heat_608k.vtk openfoam/boxturb48_dns.vtk vtk-data/disk_out_ref.vtu \
-    openfoam/flange_snappy_89k.vtu; do
+    openfoam/flange_snappy_89k.vtu vtk-data/kiefer_dataset.vtu gmsh/component8_84k.msh; do
   [ -f "$d/$f" ] || { echo "make-images.sh: $d/$f missing: set CELLRAY_DATA_DIR to the shared data set" >&2; exit 1; }
 done
 ./scripts/install-deps.sh
@@ -46,6 +46,11 @@ $r "$d"/openfoam/flange_snappy_89k.vtu --mode iso --iso 300,450 --iso-opacity 1 
    -o $out/flange_snappy_iso.png
 $r "$d"/openfoam/flange_snappy_89k.vtu --mode dvr --tf inferno --legend --title "snappy flange: T" \
    --size 480x360 -o $out/flange_snappy_dvr.png
+# Files without point data: the FEA bracket's cell stress averaged to the
+# vertices; the bare gmsh mesh by its longest coordinate.
+$r "$d"/vtk-data/kiefer_dataset.vtu --iso 0.5,2,6 --legend --title "kiefer bracket: stress (psi)" \
+   --size 480x360 -o $out/kiefer_stress_iso.png
+$r "$d"/gmsh/component8_84k.msh --mode dvr --size 480x360 -o $out/component8_msh_dvr.png
 # The Embree host example (examples/04_embree_host.cpp): its generated mesh.
 ./build/examples/04_embree_host $out/embree_host.png
 ./build/examples/04_embree_host --iso $out/embree_host_iso.png

@@ -36,9 +36,9 @@ stage "ASan+UBSan build"
   ctest --output-on-failure -j"$jobs" -LE no-sanitizer)
 stage "ASan+UBSan tests"
 
-# Reliability (docs/reliability.md): each libFuzzer harness for 30 s (clang,
+# Reliability (docs/reliability.md): each libFuzzer harness for 20 s (clang,
 # ASan + UBSan), then the concurrency tests under ThreadSanitizer.
-./scripts/fuzz.sh 30 build-fuzz
-stage "fuzz (build + 3 x 30 s)"
+./scripts/fuzz.sh 20 build-fuzz
+stage "fuzz (build + 4 x 20 s)"
 ./scripts/tsan.sh build-tsan
 stage "TSan (build + run)"

@@ -468,7 +468,9 @@ TEST_CASE("read_mesh dispatches on the extension and names an unknown one", "[io
   TestGrid const g = make_grid(false);
   CHECK(read_mesh_from_memory(write_legacy(g, {}), "x.VTK").tet_count() == 3);
   CHECK(read_mesh_from_memory(write_vtu(g, {}), "dir.v/x.vtu").hex_count() == 5);  // with a wedge and a pyramid
-  CHECK_THROWS_WITH(read_mesh_from_memory("", "mesh.msh"), Catch::Contains("mesh.msh") && Catch::Contains("'.msh'"));
+  CHECK_THROWS_WITH(read_mesh_from_memory("", "mesh.inp"),
+                    Catch::Contains("mesh.inp") && Catch::Contains("'.inp'") && Catch::Contains(".pvtu and .msh"));
+  CHECK_THROWS_WITH(read_mesh_from_memory("", "mesh.MSH"), Catch::Contains("mesh.MSH: empty file"));  // gmsh's reader
   CHECK_THROWS_WITH(read_mesh("/nonexistent/file.vtk"), Catch::Contains("/nonexistent/file.vtk") && Catch::Contains("cannot open"));
   CHECK_THROWS_AS(read_mesh("no_extension"), IoError);
 }

@@ -258,7 +258,7 @@ TEST_CASE("PNG: every byte decodes back, whatever the size, pixels and block spl
   }
 }
 
-TEST_CASE("PNG: the bytes do not depend on the thread count; IDAT may be split", "[io][image][png]") {
+TEST_CASE("PNG: the bytes do not depend on the thread count -- IDAT may be split", "[io][image][png]") {
   Image const img = mixed_image(517, 901, 42);
   std::string const many = encode_png(img);
   std::string one;
@@ -269,7 +269,7 @@ TEST_CASE("PNG: the bytes do not depend on the thread count; IDAT may be split",
   CHECK((decode(split, 517, 901) == img.to_straight_rgba8()));
 }
 
-TEST_CASE("PNG: write_png writes encode_png's bytes; flat images stay small", "[io][image][png]") {
+TEST_CASE("PNG: write_png writes encode_png's bytes -- flat images stay small", "[io][image][png]") {
   Scratch s("cellray_image_png");
   Image flat(1024, 768);
   for (size_t i = 0; i < flat.rgba.size(); ++i) flat.rgba[i] = i % 4 == 3 ? 1.f : 0.5f;

@@ -77,7 +77,7 @@ TEST_CASE("a polyhedron whose faces do not close, or name a missing point, is an
 
 namespace test_io_polyhedra {
 
-TEST_CASE("collapsed cells: repeated ids keep the real shape; fewer than 4 distinct is an error or a skip",
+TEST_CASE("collapsed cells: repeated ids keep the real shape -- fewer than 4 distinct is an error or a skip",
           "[io][polyhedra]") {
   std::string const file =
       "# vtk DataFile Version 3.0\ncollapsed\nASCII\nDATASET UNSTRUCTURED_GRID\n"

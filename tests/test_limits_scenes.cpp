@@ -95,7 +95,7 @@ bool finite_in_unit(Image const& img) {
 
 }  // namespace
 
-TEST_CASE("isovalues outside the data range draw nothing; DVR over an empty range is the background",
+TEST_CASE("isovalues outside the data range draw nothing -- DVR over an empty range is the background",
           "[limits][render]") {
   Placed const p(6000, 1.0, {0, 0, 0});
   TetMesh const m = p.mesh();
@@ -159,7 +159,7 @@ TEST_CASE("a 1x1 image is the centre ray: same hit as the oracle and as a 3x3 im
     }
 }
 
-TEST_CASE("extreme fields of view render finite images; out-of-range ones are rejected", "[limits][render]") {
+TEST_CASE("extreme fields of view render finite images -- out-of-range ones are rejected", "[limits][render]") {
   Placed const p(6000, 1.0, {0, 0, 0});
   TetMesh const m = p.mesh();
   MinMaxBvh const bvh = build_minmax_bvh(m);

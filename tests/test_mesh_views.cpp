@@ -105,7 +105,7 @@ TEST_CASE("generated meshes are conforming, positively oriented and carry the an
 TEST_CASE("validate names bad indices, non-finite data, flat and inverted cells", "[mesh]") {
   float const nan = std::numeric_limits<float>::quiet_NaN();
   std::vector<float> xyz = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 0, nan, 0, 0, 0, nan, 0};
-  std::vector<float> val = {0, 1, 2, nan, 4, 5, 5};
+  std::vector<float> val = {0, 1, 2, nan, 4, 5, nan};  // vertex 6's NaN: no cell uses it, so no finding
   std::vector<uint32_t> idx = {
       0, 1, 2, 3,  // fine
       0, 2, 1, 3,  // inverted

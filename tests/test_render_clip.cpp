@@ -118,7 +118,7 @@ TEST_CASE("clip planes and boxes: iso (caps, shadows, AO) and DVR against the re
   check_clipped(h.mesh(), "hexes");
 }
 
-TEST_CASE("a clip keeping everything changes nothing; one keeping nothing leaves the background",
+TEST_CASE("a clip keeping everything changes nothing -- one keeping nothing leaves the background",
           "[render][clip][isa]") {
   auto const g = generate_tets(6 * 6 * 6 * 6, 3);
   TetMesh const mesh = g.mesh();

@@ -153,7 +153,7 @@ TEST_CASE("depth in: the host's geometry ends the rays, as a clip plane does in 
   }
 }
 
-TEST_CASE("depth out: opaque isosurface hits lie on the surface; volume depth grows with the threshold",
+TEST_CASE("depth out: opaque isosurface hits lie on the surface -- volume depth grows with the threshold",
           "[render][host][isa]") {
   Fixture const f;
   RenderOptions const ro = test::isa_options();
@@ -203,7 +203,7 @@ TEST_CASE("depth out: opaque isosurface hits lie on the surface; volume depth gr
   CHECK(both > 100);
 }
 
-TEST_CASE("DVR of host rays: camera rays give the image; an interval ends them as a depth buffer does",
+TEST_CASE("DVR of host rays: camera rays give the image -- an interval ends them as a depth buffer does",
           "[render][host][isa]") {
   Fixture const f;
   RenderOptions const ro = test::isa_options();

@@ -121,13 +121,13 @@ TEST_CASE("vertex gradients of a linear field are exact at every vertex", "[rend
   check(generate_hexes(6 * 6 * 6, 2));
 }
 
-TEST_CASE("smooth normals follow a sphere more closely than flat ones; colour by another array",
+TEST_CASE("smooth normals follow a sphere more closely than flat ones -- colour by another array",
           "[render][smooth][isa]") {
   check_smooth(generate_tets(6 * 10 * 10 * 10, 2), "tets", 12.0);
   check_smooth(generate_hexes(10 * 10 * 10, 2, 0.15f), "hexes", 12.0);
 }
 
-TEST_CASE("smooth normals need vertex gradients; colouring needs the array", "[render][smooth]") {
+TEST_CASE("smooth normals need vertex gradients -- colouring needs the array", "[render][smooth]") {
   auto const g = generate_tets(6 * 3 * 3 * 3, 1);
   TetMesh const mesh = g.mesh();
   MinMaxBvh const bvh = build_minmax_bvh(mesh);

@@ -117,7 +117,7 @@ void run(Bytes& in, uint8_t flags, uint8_t tuning, uint64_t nv, uint64_t nc, flo
   for (uint64_t v = 0; v < nv; ++v) {
     bool const finite = std::isfinite(xyz[3 * v]) && std::isfinite(xyz[3 * v + 1]) && std::isfinite(xyz[3 * v + 2]);
     (used[v] ? bad_positions : unused_bad_positions) += !finite;
-    bad_values += !std::isfinite(values[v]);
+    bad_values += used[v] && !std::isfinite(values[v]);  // values no cell reads are not counted
   }
   require(rep.cells == nc && rep.vertices == nv, "report counts");
   require(rep.bad_index.count == bad_cells, "bad index count differs from brute force");

@@ -123,7 +123,7 @@ class GmshParser {
       if (section.empty() || section[0] != '$') src_.fail_line(at, "expected a section such as $Nodes, found " + in_quotes(section));
       std::string_view const name = section.substr(1);
       if (!format && name != "MeshFormat") src_.fail_line(at, "an MSH file starts with $MeshFormat, not " + in_quotes(section));
-      if (name == "MeshFormat") read_format(at), format = true;
+      if (name == "MeshFormat") read_format(), format = true;
       else if (name == "Nodes") read_nodes(at), nodes = true;
       else if (name == "Elements") {
         if (!nodes) src_.fail_line(at, "$Elements before $Nodes");
@@ -230,7 +230,9 @@ class GmshParser {
     src_.fail_line(at, "section $" + std::string(name) + " has no " + close);
   }
 
-  void read_format(uint64_t at) {
+  void read_format() {
+    skip_space();
+    uint64_t const at = pos_;
     std::string_view const version = token();
     int64_t const file_type = number<int64_t>("the file type (0: ASCII)");
     number<int64_t>("the data size");

@@ -47,7 +47,7 @@ struct ValidationReport {
   Finding bad_index;           ///< error: a cell names a vertex id >= vertex count (cell ids)
   Finding nonfinite_position;  ///< error: NaN or inf coordinate of a vertex a cell uses (vertex ids)
   Finding unused_nonfinite_position;  ///< warning: NaN or inf coordinate of a vertex no cell uses (ignored)
-  Finding nonfinite_value;     ///< warning: NaN or inf in the active array (vertex ids)
+  Finding nonfinite_value;     ///< warning: NaN or inf in the active array at a vertex a cell uses (vertex ids)
   Finding zero_volume;         ///< warning: flat or collapsed cells (cell ids)
   Finding inverted;            ///< warning: negative orientation (cell ids)
   float value_min = std::numeric_limits<float>::infinity();   ///< finite values only
@@ -135,19 +135,23 @@ template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
         return a;
       });
   rep.nonfinite_position = vpart.pos;
-  if (vpart.pos) {
-    // Rare: split them into vertices a cell uses (an error) and the rest
-    // (files keep unused points; nothing reads them). Serial, only here.
+  rep.nonfinite_value = vpart.value;
+  if (vpart.pos || vpart.value) {
+    // Rare: count only vertices a cell uses. Files keep unused points (a
+    // quadratic cell read as its corners leaves its mid-edge nodes unused,
+    // and a cell array averaged to the vertices gives those NaN); nothing
+    // reads them. Serial, only here.
     std::vector<uint8_t> used(nv, 0);
     for (uint64_t c = 0; c < mesh.cell_count(); ++c)
       for (int k = 0; k < N; ++k)
         if (uint64_t const v = mesh.vertex(c, k); v < nv) used[v] = 1;
-    rep.nonfinite_position = {};
-    for (uint64_t v = 0; v < nv; ++v)
+    rep.nonfinite_position = {}, rep.nonfinite_value = {};
+    for (uint64_t v = 0; v < nv; ++v) {
       if (!std::isfinite(xyz[3 * v]) || !std::isfinite(xyz[3 * v + 1]) || !std::isfinite(xyz[3 * v + 2]))
         (used[v] ? rep.nonfinite_position : rep.unused_nonfinite_position).add(v);
+      if (val && used[v] && !std::isfinite(val[v])) rep.nonfinite_value.add(v);
+    }
   }
-  rep.nonfinite_value = vpart.value;
   rep.value_min = vpart.lo;
   rep.value_max = vpart.hi;
 

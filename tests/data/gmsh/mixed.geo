@@ -1,0 +1,10 @@
+SetFactory("OpenCASCADE");
+Box(1) = {0,0,0, 1,1,1};
+Box(2) = {1,0,0, 1,1,1};
+Coherence;
+Transfinite Curve{:} = 4;
+Transfinite Surface{:};
+Transfinite Volume{1};
+Recombine Surface{:};
+Recombine Volume{1};
+Mesh.SubdivisionAlgorithm = 0;
