@@ -479,8 +479,8 @@ class GmshParser {
                                           "): not volume cells");
     }
     for (auto const& [type, n] : skipped_) {
-      grid.report.other_ignored.push_back("skipped " + std::to_string(n) + " elements of gmsh type " + std::to_string(type) +
-                                          " (unsupported)");
+      grid.report.other_ignored.push_back(std::to_string(n) + " elements of gmsh type " + std::to_string(type) +
+                                          " (a type cellray does not read: skipped)");
       grid.report.other_cells_skipped += n;
     }
     for (auto& s : ignored_) grid.report.other_ignored.push_back(std::move(s));
