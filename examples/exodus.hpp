@@ -131,7 +131,12 @@ inline UnstructuredGrid read_exodus(std::string const& path, ReadOptions const& 
     throw IoError(path + ": no element block of volume elements (TETRA, HEX, WEDGE or PYRAMID)");
   uint64_t const ncells = types.size();
   std::vector<uint64_t> offsets(ncells + 1, 0);
-  for (uint64_t i = 0; i < ncells; ++i) offsets[i + 1] = offsets[i] + (types[i] == 10 ? 4 : types[i] == 12 ? 8 : types[i] == 13 ? 6 : 5);
+  for (uint64_t i = 0; i < ncells; ++i) {
+    uint64_t nodes;
+    bool exact;
+    io::classify_cell(types[i], nodes, exact);
+    offsets[i + 1] = offsets[i] + nodes;
+  }
   io::CellLocator where;
   where.type = [&](uint64_t c) { return path + ": cell " + std::to_string(c) + ": "; };
   where.conn = [&](uint64_t k) { return path + ": connectivity entry " + std::to_string(k) + ": "; };
@@ -158,9 +163,7 @@ inline UnstructuredGrid read_exodus(std::string const& path, ReadOptions const& 
   for (int v = 0; v < nnode_vars && steps > 0; ++v) {
     std::vector<double> vals(n);
     check(ex_get_var(exo, 1, EX_NODAL, v + 1, 1, nnodes, vals.data()), "nodal variable '" + node_names[size_t(v)] + "'");
-    std::vector<float> f(vals.size());
-    for (size_t i = 0; i < vals.size(); ++i) f[i] = io::to_float(vals[i]);
-    io::add_point_array(grid, node_names[size_t(v)], std::move(f), 1);
+    io::add_point_array(grid, node_names[size_t(v)], io::point_values(io::NumArray::owning(vals), 1, n), 1);
   }
   std::vector<std::string> const elem_names = names(EX_ELEM_BLOCK, nelem_vars);
   for (int v = 0; v < nelem_vars && steps > 0; ++v)

@@ -3,8 +3,11 @@
 // libFuzzer records the input as a crash) and the invariants every grid a
 // reader returns must hold.
 
+#include <cstddef>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <string_view>
 
 #include <cellray/io/grid.hpp>
 
@@ -41,6 +44,23 @@ inline void check_grid(UnstructuredGrid& g) {
     g.cell_to_point(g.cell_arrays[0].name, name);
     require(g.point_array(name) && g.point_array(name)->values.size() == nv, "cell_to_point size");
   }
+}
+
+/// One input through a reader `read(bytes, name, opts)`: it must return a
+/// grid that passes check_grid or throw IoError; anything else is a finding.
+/// Both skip policies are exercised, chosen by the input's size.
+template <class Read> int fuzz_reader(uint8_t const* data, size_t size, char const* name, Read read) {
+  std::string_view const bytes(reinterpret_cast<char const*>(data), size);
+  ReadOptions opts;
+  opts.skip_unsupported_cells = size % 2 == 1;
+  UnstructuredGrid grid;
+  try {
+    grid = read(bytes, name, opts);
+  } catch (IoError const&) {
+    return 0;
+  }
+  check_grid(grid);
+  return 0;
 }
 
 }  // namespace cellray::fuzz

@@ -462,12 +462,8 @@ class GmshParser {
         ncells, types, conn, [&offsets](uint64_t c) { return std::pair<uint64_t, uint64_t>(offsets[c], offsets[c + 1]); },
         npoints, opts_, grid, where);
     grid.report.reduced_to_linear += higher_order_;
-    for (auto& d : point_data_) {
-      std::vector<float> values(npoints);
-      NumArray const a = NumArray::owning(d.values);
-      for (uint64_t i = 0; i < npoints; ++i) values[i] = tuple_value(a, i, d.ncomp);
-      add_point_array(grid, std::move(d.name), std::move(values), d.ncomp);
-    }
+    for (auto& d : point_data_)
+      add_point_array(grid, std::move(d.name), point_values(NumArray::owning(d.values), d.ncomp, npoints), d.ncomp);
     bool const has_physical = std::any_of(physical_.begin(), physical_.end(), [](double v) { return v == v; });
     if (has_physical) add_cell_array(grid, "gmsh:physical", NumArray::owning(physical_), 1, kinds);
     add_cell_array(grid, "gmsh:geometrical", NumArray::owning(geometrical_), 1, kinds);
