@@ -709,7 +709,7 @@ int main(int argc, char** argv) {
   app.add_option("--size", o.size, "Image size WxH");
   app.add_option("-o,--output", o.out, "Output image, .png or .ppm (written by rank 0)");
   app.add_option("--threads", o.threads, "Worker threads per rank (default: all cores)")->check(CLI::Range(1, 4096));
-  app.add_flag("--skip-unsupported", o.skip_unsupported, "Skip cells cellray cannot read (2D cells, polyhedra in legacy files...)");
+  app.add_flag("--skip-unsupported", o.skip_unsupported, "Skip cells cellray cannot read (2D cells, other non-linear 3D types...)");
   app.add_flag("--stats", o.stats, "Per-rank timings as JSON lines on rank 0's stdout");
   app.add_flag("--shadows", o.shadows, "Refused: shadow rays need the whole mesh");
   app.add_option("--ao", o.ao, "Refused: ambient-occlusion rays need the whole mesh");

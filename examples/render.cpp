@@ -327,7 +327,7 @@ void add_options(CLI::App& app, Options& o) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--cell-to-point", o.cell_to_point,
                  "Average the cell array NAME to the vertices and render it (unless --array says otherwise)");
-  app.add_flag("--skip-unsupported", o.skip_unsupported, "Skip cells cellray cannot read (2D cells, polyhedra in legacy files...) instead of failing");
+  app.add_flag("--skip-unsupported", o.skip_unsupported, "Skip cells cellray cannot read (2D cells, other non-linear 3D types...) instead of failing");
   app.add_option("--mode", o.mode, "isosurfaces or direct volume rendering")
       ->check(CLI::IsMember({"iso", "dvr"}))
       ->capture_default_str();

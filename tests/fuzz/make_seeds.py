@@ -4,7 +4,9 @@ seeds/validate): one small mixed mesh (a tetrahedron, a hexahedron and a
 wedge) in every dialect the readers support, so the fuzzer starts inside each
 decoding path (legacy ASCII/BINARY old and 5.1 layouts; VTU ascii, inline
 base64, appended raw/base64, zlib, 32/64-bit headers, both byte orders), and
-a few decoded meshes for the validate harness. The outputs are committed;
+a few decoded meshes for the validate harness; and legacy 4.2 and 5.1 files
+with a polyhedron too (the hexahedron's cube again as a face stream, VTK
+9.1's layout), so the fuzzer starts inside the polyhedra split. The outputs are committed;
 run again after editing.
 """
 import base64
@@ -19,6 +21,9 @@ XYZ = [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1,
 CELLS = [(10, [0, 1, 2, 3]), (12, [4, 5, 6, 7, 8, 9, 10, 11]), (13, [0, 1, 2, 4, 5, 7])]
 TEMP = [0.1 * i for i in range(12)]
 PRESSURE = [1.5, -2.0, 3.25]
+# The hexahedron's cube as a polyhedron: [nFaces, nPts, ids..., ...], outward faces.
+CUBE = [[4, 7, 6, 5], [8, 9, 10, 11], [4, 5, 9, 8], [5, 6, 10, 9], [6, 7, 11, 10], [7, 4, 8, 11]]
+POLY_CELLS = CELLS + [(42, [len(CUBE)] + [x for f in CUBE for x in [len(f)] + f])]
 
 
 def put(sub, name, data):
@@ -29,7 +34,7 @@ def put(sub, name, data):
 
 
 # --- legacy VTK ---------------------------------------------------------------
-def legacy(version, binary, new_layout):
+def legacy(version, binary, new_layout, cells=CELLS, pressure=PRESSURE):
     def block(fmt, values):
         if binary:
             return struct.pack(">%d%s" % (len(values), fmt), *values) + b"\n"
@@ -40,20 +45,20 @@ def legacy(version, binary, new_layout):
     o += b"POINTS 12 float\n" + block("f", XYZ)
     if new_layout:
         offsets, conn = [0], []
-        for _, ids in CELLS:
+        for _, ids in cells:
             conn += ids
             offsets.append(len(conn))
         o += b"CELLS %d %d\nOFFSETS vtktypeint64\n" % (len(offsets), len(conn)) + block("q", offsets)
         o += b"CONNECTIVITY vtktypeint64\n" + block("q", conn)
     else:
         flat = []
-        for _, ids in CELLS:
+        for _, ids in cells:
             flat += [len(ids)] + ids
-        o += b"CELLS %d %d\n" % (len(CELLS), len(flat)) + block("i", flat)
-    o += b"CELL_TYPES %d\n" % len(CELLS) + block("i", [t for t, _ in CELLS])
+        o += b"CELLS %d %d\n" % (len(cells), len(flat)) + block("i", flat)
+    o += b"CELL_TYPES %d\n" % len(cells) + block("i", [t for t, _ in cells])
     o += b"POINT_DATA 12\nSCALARS temperature float 1\nLOOKUP_TABLE default\n" + block("f", TEMP)
     o += b"FIELD FieldData 1\nvelocity 3 12 double\n" + block("d", [0.5] * 36)
-    o += b"CELL_DATA 3\nSCALARS pressure double\nLOOKUP_TABLE default\n" + block("d", PRESSURE)
+    o += b"CELL_DATA %d\nSCALARS pressure double\nLOOKUP_TABLE default\n" % len(cells) + block("d", pressure)
     return o
 
 
@@ -61,6 +66,10 @@ for version in ["2.0", "3.0", "4.2", "5.1"]:
     for binary in [False, True]:
         name = "v%s_%s.vtk" % (version.replace(".", ""), "binary" if binary else "ascii")
         put("vtk", name, legacy(version, binary, version == "5.1"))
+for version in ["4.2", "5.1"]:
+    for binary in [False, True]:
+        name = "poly%s_%s.vtk" % (version.replace(".", ""), "binary" if binary else "ascii")
+        put("vtk", name, legacy(version, binary, version == "5.1", POLY_CELLS, PRESSURE + [4.5]))
 
 
 # --- VTU ----------------------------------------------------------------------

@@ -624,7 +624,8 @@ void drop_collapsed_cells(uint64_t ncells, NumArray const& types, SpanFn span, R
 }
 
 /// Polyhedra (VTK 42) are kind 3 when the format gives their faces
-/// (`polyhedra`: VTU), else unsupported.
+/// (`polyhedra`: VTU, legacy VTK), else unsupported; their ids are not
+/// checked here (io/polyhedra.hpp checks their faces).
 template <class SpanFn>
 CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, SpanFn span, uint64_t npoints,
                       ReadOptions const& opts, UnstructuredGrid& grid, CellLocator const& where,
@@ -686,7 +687,7 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
         first = std::min(first, first_unsupported[t]);
       }
     }
-    throw IoError(where.type(first) + "unsupported cells: " + list + "; cellray reads tetrahedra, pyramids, wedges and hexahedra, and polyhedra from .vtu " +
+    throw IoError(where.type(first) + "unsupported cells: " + list + "; cellray reads tetrahedra, pyramids, wedges and hexahedra, and polyhedra from .vtu and legacy .vtk files " +
                   "(set ReadOptions::skip_unsupported_cells to skip them)");
   }
   for (int t = 0; t < 82; ++t) {

@@ -4,6 +4,9 @@
 // OFFSETS/CONNECTIVITY layout, CELL_TYPES, POINT_DATA / CELL_DATA with
 // SCALARS, VECTORS, TENSORS and FIELD blocks; METADATA blocks, lookup tables,
 // normals, texture coordinates, ids and string arrays are skipped and reported.
+// Polyhedra (VTK 42) are read as VTK 9.1 writes them, their face stream
+// [nFaces, nPts0, ids..., nPts1, ids...] as the cell's connectivity in either
+// layout, and split as the VTU reader splits them (io/polyhedra.hpp).
 
 #include <cstdint>
 #include <string>
@@ -15,6 +18,7 @@
 
 #include "detail.hpp"
 #include "grid.hpp"
+#include "polyhedra.hpp"
 
 namespace cellray {
 namespace io {
@@ -519,6 +523,54 @@ class LegacyParser {
     }
   }
 
+  /// The polyhedra (VTK 42) among the cells, each with its face stream's
+  /// range in the connectivity, and where their new cells go; reserves the
+  /// grid's storage for the file's cells and theirs. The ranges were
+  /// checked by cells() (check_offsets, classic_starts).
+  void plan_polyhedra(UnstructuredGrid& grid, PolyPlan& poly) {
+    uint64_t file_tets = 0, file_hexes = 0;
+    bool any = false;
+    with_ints(types_.data, [&](auto const type_of) {
+      for (uint64_t c = 0; c < ncells_; ++c) {
+        uint64_t nodes;
+        bool exact;
+        CellKind const k = classify_cell(type_of(c), nodes, exact);
+        file_tets += k == CellKind::tet;
+        file_hexes += k == CellKind::hex || k == CellKind::voxel;
+        any |= k == CellKind::polyhedron;
+      }
+    });
+    if (!any) return;
+    NumArray const& t = types_.data;
+    if (new_layout_) {
+      NumArray const& o = offsets_.data;
+      for (uint64_t c = 0; c < ncells_; ++c)
+        if (t.as_int(c) == vtk_polyhedron) poly.polys.push_back({c, uint64_t(o.as_int(c)), uint64_t(o.as_int(c + 1))});
+    } else {
+      ClassicSpans span{&cells_.data};
+      for (uint64_t c = 0; c < ncells_; ++c)
+        if (t.as_int(c) == vtk_polyhedron) {
+          auto const [b, e] = span(c);
+          poly.polys.push_back({c, b, e});
+        }
+    }
+    count_polyhedron_cells(cells_.data, poly);
+    grid.tets.reserve(4 * (file_tets + poly.new_tets()));
+    grid.hexes.reserve(8 * (file_hexes + poly.new_hexes()));
+    grid.xyz.reserve(3 * (npoints_ + poly.polys.size()));
+  }
+
+  /// Splits the planned polyhedra (io/polyhedra.hpp); an error names the
+  /// cell and the start of its face stream in the file.
+  void split_polyhedra(UnstructuredGrid& grid, PolyPlan const& poly, PolyhedraValues const& values) {
+    PolySplitError const e = io::split_polyhedra(grid, cells_.data, poly, values, /*whole=*/true);
+    if (!e) return;
+    char const* const list = new_layout_ ? "CONNECTIVITY: " : "CELLS: ";
+    if (e.too_many) src_.fail_line(cells_.header, std::string(list) + "the polyhedra's centre points pass 2^32 - 1 vertices");
+    PolyRange const& p = poly.polys[e.at];
+    throw IoError(where_value(cells_, p.begin) + list + "polyhedron cell " + std::to_string(p.cell) + e.what);
+  }
+
   UnstructuredGrid finish() {
     UnstructuredGrid grid;
     grid.report.file = src_.name;
@@ -538,6 +590,12 @@ class LegacyParser {
     CellLocator where;
     where.conn = [this](uint64_t k) { return where_value(cells_, k); };
     where.type = [this](uint64_t c) { return where_value(types_, c); };
+    // Polyhedra: planned before any cell is stored, so that the cells',
+    // positions' and point arrays' storage is reserved once for the file's
+    // and the split's (io/polyhedra.hpp).
+    PolyPlan poly;
+    plan_polyhedra(grid, poly);
+    uint64_t const npoly = poly.polys.size();
     // Points and point arrays need nothing from the cells: they are converted
     // in a task while the cells are checked (a serial walk), so their fresh
     // pages are first written on the other core.
@@ -545,7 +603,7 @@ class LegacyParser {
     auto convert_points = [&] {
       set_positions(grid, points_.data, npoints_);
       for (size_t i = 0; i < pending_.size(); ++i)
-        if (!pending_[i].cell) point_values[i] = io::point_values(pending_[i].data, pending_[i].ncomp, npoints_);
+        if (!pending_[i].cell) point_values[i] = io::point_values(pending_[i].data, pending_[i].ncomp, npoints_, npoly);
     };
     tbb::task_group points_task;
     bool const small = 3 * npoints_ <= convert_grain && ncells_ <= cell_grain;  // not worth waking the thread pool
@@ -558,20 +616,29 @@ class LegacyParser {
         kinds = build_cells(
             ncells_, types_.data, cells_.data,
             [&o](uint64_t c) { return std::pair<uint64_t, uint64_t>(uint64_t(o.as_int(c)), uint64_t(o.as_int(c + 1))); },
-            npoints_, opts_, grid, where);
+            npoints_, opts_, grid, where, /*polyhedra=*/true);
       } else {
-        kinds = build_cells(ncells_, types_.data, cells_.data, ClassicSpans{&cells_.data}, npoints_, opts_, grid, where);
+        kinds = build_cells(ncells_, types_.data, cells_.data, ClassicSpans{&cells_.data}, npoints_, opts_, grid, where,
+                            /*polyhedra=*/true);
       }
     } catch (...) {
       points_task.wait();
       throw;
     }
     points_task.wait();
+    PolyhedraValues poly_values;  // per cell array, its polyhedra's values
     for (size_t i = 0; i < pending_.size(); ++i) {
       Pending& p = pending_[i];
-      if (p.cell) add_cell_array(grid, std::move(p.name), p.data, p.ncomp, kinds);
-      else add_point_array(grid, std::move(p.name), std::move(point_values[i]), p.ncomp);
+      if (p.cell) {
+        std::vector<float> values;
+        size_t const before = grid.cell_arrays.size();
+        add_cell_array(grid, p.name, p.data, p.ncomp, kinds, npoly ? &values : nullptr, poly.new_tets(), poly.new_hexes());
+        if (npoly && grid.cell_arrays.size() > before) poly_values.emplace_back(std::move(p.name), std::move(values));
+      } else {
+        add_point_array(grid, std::move(p.name), std::move(point_values[i]), p.ncomp);
+      }
     }
+    if (npoly) split_polyhedra(grid, poly, poly_values);
     for (auto& s : ignored_) grid.report.arrays_ignored.push_back(std::move(s));
     return grid;
   }

@@ -20,6 +20,7 @@
 
 #include "detail.hpp"
 #include "grid.hpp"
+#include "polyhedra.hpp"
 
 namespace cellray {
 namespace io {
@@ -415,10 +416,11 @@ class VtuParser {
         plan_.failed = std::current_exception();
       }
       if (!plan_.failed) {
-        grid.tets.reserve(4 * (file_tets + plan_.tet_at.back()));
-        grid.hexes.reserve(8 * (file_hexes + plan_.hex_at.back()));
-        grid.xyz.reserve(3 * (np + plan_.polys.size()));
-        poly_spare_ = Spare{plan_.polys.size(), plan_.tet_at.back(), plan_.hex_at.back()};
+        PolyPlan const& pp = plan_.plan;
+        grid.tets.reserve(4 * (file_tets + pp.new_tets()));
+        grid.hexes.reserve(8 * (file_hexes + pp.new_hexes()));
+        grid.xyz.reserve(3 * (np + pp.polys.size()));
+        poly_spare_ = Spare{pp.polys.size(), pp.new_tets(), pp.new_hexes()};
       }
     }
     CellLocator where;
@@ -456,7 +458,7 @@ class VtuParser {
   bool appended_ = false, appended_base64_ = false, compressed_ = false, big_endian_ = false, swap_ = false;
   uint64_t appended_base_ = 0, appended_end_ = 0, header_size_ = 4;
   std::set<std::string> formats_;
-  std::vector<std::pair<std::string, std::vector<float>>> polyhedra_values_;  // per cell array
+  PolyhedraValues polyhedra_values_;  // per cell array
   // Decoded base64 arrays, one after another in one buffer sized for all of
   // them (3 bytes per 4 of file): it is huge pages from 4 MB (memory.hpp),
   // where a buffer per array cost ~2,000 first-write faults of 4 KB (~30 ms)
@@ -713,30 +715,18 @@ class VtuParser {
     }
   }
 
-  /// Each polyhedron (kind 3) becomes tetrahedra and pyramids (collapsed
-  /// hexahedra) around an added centre point (mesh/vtk_cells.hpp), appended
-  /// after the file's cells, as foamToVTK -poly-decomp and ParaView do. The
-  /// centre is the volume centroid; its value in a point array is the
-  /// polyhedron's own value when a cell array has the same name (foamToVTK:
-  /// the cell's value at the cell centre), else the mean of its vertices.
-  /// The new cells carry the polyhedron's cell-array values.
-  /// Passes 1 and 2 of the polyhedra split, run before any cell is stored:
-  /// the cells' storage is then reserved once for the file's cells and the
-  /// polyhedra's (growing it after the file's cells cost a copy and the
-  /// first-write faults of the first buffer, ~15% of the flange's load). Its
-  /// errors are kept in `failed` and thrown by split_polyhedra, so errors
-  /// come in the order they always did.
-  struct PolyRange {
-    uint64_t cell, begin, end;  ///< file cell; its face stream is faces[begin, end)
-  };
-  struct PolyPlan {
+  /// Each polyhedron (kind 3) becomes tetrahedra and pyramids around an
+  /// added centre point (io/polyhedra.hpp). plan_polyhedra runs before any
+  /// cell is stored, so that their storage is reserved once; its errors are
+  /// kept in `failed` and thrown by split_polyhedra, so errors come in the
+  /// order they always did.
+  struct VtuPolyhedra {
     NumArray faces, face_offsets;
-    std::vector<PolyRange> polys;                // the polyhedra in file order, up to order_error
-    std::string order_error;                     // a faceoffsets error after polys
-    std::vector<uint64_t> tet_at, hex_at;        // polyhedron k's first new tet / hex (prefix sums)
+    PolyPlan plan;            // the polyhedra in file order, up to order_error
+    std::string order_error;  // a faceoffsets error after plan.polys
     std::exception_ptr failed;
   };
-  PolyPlan plan_;
+  VtuPolyhedra plan_;
   pugi::xml_node plan_faces_el_, plan_face_offsets_el_;
   struct Spare {
     uint64_t points = 0, tets = 0, hexes = 0;
@@ -747,16 +737,15 @@ class VtuParser {
     if (!faces_el || !face_offsets_el)
       src_.fail_line(offset(cells), "polyhedra (VTK type 42) need the DataArrays 'faces' and 'faceoffsets'");
     uint64_t const nc = types.count;
-    PolyPlan& p = plan_;
+    VtuPolyhedra& p = plan_;
     p.face_offsets = decode(face_offsets_el, nc, "faceoffsets");
     NumArray const& face_offsets = p.face_offsets;
     int64_t end = 0;
     for (uint64_t c = 0; c < nc; ++c) end = std::max(end, face_offsets.as_int(c));
     p.faces = decode(faces_el, uint64_t(end), "faces");
-    NumArray const& faces = p.faces;
 
-    // Pass 1, in file order (cheap): each polyhedron's face stream. A
-    // faceoffsets error is kept, not thrown, so that an error in an earlier
+    // Each polyhedron's face stream, in file order (cheap). A faceoffsets
+    // error is kept, not thrown, so that an error in an earlier
     // polyhedron's faces is still the one reported, as in a serial walk.
     // Polyhedra are the cells of type 42 (build_cells' kind 3).
     int64_t prev_end = 0;
@@ -771,185 +760,20 @@ class VtuParser {
                         ", before its start " + std::to_string(prev_end);
         break;
       }
-      p.polys.push_back({c, uint64_t(prev_end), uint64_t(stop)});
+      p.plan.polys.push_back({c, uint64_t(prev_end), uint64_t(stop)});
       prev_end = stop;
     }
-
-    // Pass 2, in parallel: each polyhedron's cell counts from its face sizes
-    // alone (decompose_polyhedron makes a pyramid of a quad, n - 2 tets of an
-    // n-gon), so that pass 3 writes every cell in its final place. A
-    // malformed stream counts what it can; pass 3 stops at it before writing
-    // anything of it.
-    uint64_t const npoly = p.polys.size();
-    p.tet_at.assign(npoly + 1, 0);
-    p.hex_at.assign(npoly + 1, 0);
-    for_poly_chunks(npoly, [&](tbb::blocked_range<uint64_t> const& r) {
-      for (uint64_t k = r.begin() * poly_grain, ke = std::min(npoly, r.end() * poly_grain); k < ke; ++k) {
-        uint64_t i = p.polys[k].begin, e = p.polys[k].end, nt = 0, nh = 0;
-        int64_t const nfaces = i < e ? faces.as_int(i++) : 0;
-        for (int64_t j = 0; j < nfaces && i < e; ++j) {
-          int64_t const n = faces.as_int(i);
-          if (n < 3 || uint64_t(n) >= e - i) break;
-          (n == 4 ? nh : nt) += n == 4 ? 1 : uint64_t(n - 2);
-          i += uint64_t(n) + 1;
-        }
-        p.tet_at[k + 1] = nt;
-        p.hex_at[k + 1] = nh;
-      }
-    });
-    for (uint64_t k = 0; k < npoly; ++k) {
-      p.tet_at[k + 1] += p.tet_at[k];
-      p.hex_at[k + 1] += p.hex_at[k];
-    }
-  }
-
-  static constexpr uint64_t poly_grain = 256;  // polyhedra per task
-  template <class F> static void for_poly_chunks(uint64_t npoly, F const& f) {
-    uint64_t const nchunks = (npoly + poly_grain - 1) / poly_grain;
-    tbb::blocked_range<uint64_t> const all(0, nchunks, 1);
-    if (nchunks <= 1) f(all);
-    else tbb::parallel_for(all, f);
+    count_polyhedron_cells(p.faces, p.plan);
   }
 
   void split_polyhedra(UnstructuredGrid& grid) {
     if (plan_.failed) std::rethrow_exception(plan_.failed);
-    uint64_t const np = grid.vertex_count();
-    NumArray const& faces = plan_.faces;
-    std::vector<PolyRange> const& polys = plan_.polys;
-    // Each polyhedron's cell-array values, in polyhedron order.
-    std::vector<std::pair<std::string, std::vector<float>>> const& cell_values = polyhedra_values_;
-    std::vector<CellArray*> cell_arrays;  // the array each entry of cell_values fills
-    for (auto const& cv : cell_values)
-      for (auto& a : grid.cell_arrays)
-        if (a.name == cv.first) cell_arrays.push_back(&a);
-    // A point array's centre value: the same-named cell array's (its index in
-    // cell_values), else -1 for the mean of the polyhedron's vertices.
-    std::vector<int> centre_from(grid.point_arrays.size(), -1);
-    for (size_t a = 0; a < grid.point_arrays.size(); ++a)
-      for (size_t v = 0; v < cell_values.size(); ++v)
-        if (cell_values[v].first == grid.point_arrays[a].name) centre_from[a] = int(v);
-    bool const need_means = std::find(centre_from.begin(), centre_from.end(), -1) != centre_from.end();
-
-    uint64_t const npoly = polys.size();
-    uint64_t const nchunks = (npoly + poly_grain - 1) / poly_grain;
-    constexpr uint64_t grain = poly_grain;
-    uint64_t const tet0 = grid.tet_count(), hex0 = grid.hex_count();
-    std::vector<uint64_t> tet_at(plan_.tet_at), hex_at(plan_.hex_at);
-    for (uint64_t& t : tet_at) t += tet0;
-    for (uint64_t& h : hex_at) h += hex0;
-    uint64_t const new_tets = tet_at[npoly] - tet_at[0], new_hexes = hex_at[npoly] - hex_at[0];
-    cellray::detail::resize_zeroed(grid.tets, 4 * tet_at[npoly]);
-    cellray::detail::resize_zeroed(grid.hexes, 8 * hex_at[npoly]);
-    cellray::detail::resize_zeroed(grid.xyz, 3 * (np + npoly));
-    for (auto& pa : grid.point_arrays) cellray::detail::resize_zeroed(pa.values, np + npoly);
-    std::vector<float*> value_tets(cell_arrays.size()), value_hexes(cell_arrays.size());  // where new values go
-    for (size_t a = 0; a < cell_arrays.size(); ++a) {
-      uint64_t const t0 = cell_arrays[a]->tet_values.size(), h0 = cell_arrays[a]->hex_values.size();
-      cellray::detail::resize_zeroed(cell_arrays[a]->tet_values, t0 + new_tets);
-      cellray::detail::resize_zeroed(cell_arrays[a]->hex_values, h0 + new_hexes);
-      value_tets[a] = cell_arrays[a]->tet_values.data() + t0 - tet_at[0];
-      value_hexes[a] = cell_arrays[a]->hex_values.data() + h0 - hex_at[0];
-    }
-
-    // Pass 3, in parallel (each polyhedron is independent; check and
-    // decompose were ~15% of the load when serial): polyhedron k's cells,
-    // centre point (vertex np + k) and values go straight to their place.
-    struct ChunkError {
-      uint64_t at = ~uint64_t(0);  // polyhedron index of the chunk's first error
-      std::string what;
-    };
-    std::vector<ChunkError> errors(nchunks);
-    static char const* const too_many = "(centre ids pass 2^32 - 1)";  // worded below
-    float* const xyz = grid.xyz.data();
-    uint32_t* const tets = grid.tets.data();
-    uint32_t* const hexes = grid.hexes.data();
-    for_poly_chunks(npoly, [&](tbb::blocked_range<uint64_t> const& r) {
-      PolyhedronFaces f;
-      std::vector<uint64_t> verts;
-      for (uint64_t j = r.begin(); j < r.end(); ++j) {
-        for (uint64_t k = j * grain, ke = std::min(npoly, k + grain); k < ke; ++k) {
-          std::string err = parse_polyhedron(faces, polys[k], f);
-          if (err.empty())
-            if (std::string const bad = check_polyhedron(f, np); !bad.empty()) err = " " + bad;
-          if (err.empty() && np + k > std::numeric_limits<uint32_t>::max()) err = too_many;
-          if (!err.empty()) {
-            errors[j] = {k, std::move(err)};
-            break;
-          }
-          PolyhedronSplit const split = decompose_polyhedron(f, xyz, np + k);
-          assert(split.tets.size() == tet_at[k + 1] - tet_at[k] && split.hexes.size() == hex_at[k + 1] - hex_at[k]);
-          for (int a = 0; a < 3; ++a) xyz[3 * (np + k) + uint64_t(a)] = float(split.centre[a]);
-          if (need_means) {
-            verts.assign(f.ids.begin(), f.ids.end());
-            std::sort(verts.begin(), verts.end());
-            verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-          }
-          for (size_t a = 0; a < grid.point_arrays.size(); ++a) {
-            float value;
-            if (centre_from[a] >= 0) {
-              value = cell_values[size_t(centre_from[a])].second[k];
-            } else {
-              std::vector<float> const& pv = grid.point_arrays[a].values;
-              double sum = 0;
-              for (uint64_t v : verts) sum += pv[v];
-              value = float(sum / double(verts.size()));
-            }
-            grid.point_arrays[a].values[np + k] = value;
-          }
-          uint32_t* t = tets + 4 * tet_at[k];
-          for (auto const& c : split.tets)
-            for (uint64_t v : c) *t++ = uint32_t(v);
-          uint32_t* h = hexes + 8 * hex_at[k];
-          for (auto const& c : split.hexes)
-            for (uint64_t v : c) *h++ = uint32_t(v);
-          for (size_t a = 0; a < cell_arrays.size(); ++a) {
-            float const v = cell_values[a].second[k];
-            std::fill(value_tets[a] + tet_at[k], value_tets[a] + tet_at[k + 1], v);
-            std::fill(value_hexes[a] + hex_at[k], value_hexes[a] + hex_at[k + 1], v);
-          }
-        }
-      }
-    });
-    for (ChunkError const& e : errors) {
-      if (e.what.empty()) continue;
+    if (PolySplitError const e = io::split_polyhedra(grid, plan_.faces, plan_.plan, polyhedra_values_)) {
       std::string const at = src_.at_line(offset(plan_faces_el_)) + "faces: ";
-      if (e.what == too_many) throw IoError(at + "the polyhedra's centre points pass 2^32 - 1 vertices");
-      throw IoError(at + "polyhedron cell " + std::to_string(polys[e.at].cell) + e.what);
+      if (e.too_many) throw IoError(at + "the polyhedra's centre points pass 2^32 - 1 vertices");
+      throw IoError(at + "polyhedron cell " + std::to_string(plan_.plan.polys[e.at].cell) + e.what);
     }
     if (!plan_.order_error.empty()) src_.fail_line(offset(plan_face_offsets_el_), plan_.order_error);
-    grid.report.polyhedron_tets += new_tets;
-    grid.report.polyhedron_pyramids += new_hexes;
-    grid.report.polyhedra_split = npoly;
-  }
-
-  /// Polyhedron p's face stream [nfaces, n0, ids..., n1, ids...] into `f`;
-  /// "" or what is wrong, to follow "polyhedron cell C".
-  static std::string parse_polyhedron(NumArray const& faces, PolyRange const& p, PolyhedronFaces& f) {
-    int64_t const stop = int64_t(p.end);
-    uint64_t i = p.begin;
-    bool ended = false;
-    auto next = [&]() -> int64_t {
-      if (i >= uint64_t(stop)) {
-        ended = true;
-        return 0;
-      }
-      return faces.as_int(i++);
-    };
-    static char const* const early = ": its face stream ends early";
-    int64_t const nfaces = next();
-    if (ended) return early;
-    if (nfaces < 4 || nfaces > stop - int64_t(p.begin)) return " declares " + std::to_string(nfaces) + " faces";
-    f.ids.clear();
-    f.offsets.assign(1, 0);
-    for (int64_t j = 0; j < nfaces; ++j) {
-      int64_t const n = next();
-      if (ended) return early;
-      if (n < 3 || n > stop - int64_t(i))
-        return ": face " + std::to_string(j) + " declares " + std::to_string(n) + " vertices";
-      for (int64_t q = 0; q < n; ++q) f.ids.push_back(uint64_t(next()));  // negative: huge, caught by check_polyhedron
-      f.offsets.push_back(f.ids.size());
-    }
-    return "";
   }
 };
 

@@ -1,0 +1,249 @@
+#pragma once
+// Splitting a file's polyhedra (VTK 42), shared by the VTU reader (face
+// streams in `faces` / `faceoffsets`) and the legacy reader (face streams
+// inline in the connectivity, as VTK 9.1 writes them). Each polyhedron
+// becomes tetrahedra and pyramids (collapsed hexahedra) around an added
+// centre point (mesh/vtk_cells.hpp), appended after the file's cells, as
+// foamToVTK -poly-decomp and ParaView do. The centre is the volume
+// centroid; its value in a point array is the polyhedron's own value when a
+// cell array has the same name (foamToVTK: the cell's value at the cell
+// centre), else the mean of its vertices. The new cells carry the
+// polyhedron's cell-array values.
+//
+// A reader plans the split before storing any cell (PolyPlan: where each
+// polyhedron's cells go), so that the cells' storage is reserved once for
+// the file's cells and the polyhedra's (growing it after the file's cells
+// cost a copy and the first-write faults of the first buffer, ~15% of the
+// flange's load), then splits after its arrays are read (split_polyhedra).
+
+#include <algorithm>
+#include <cassert>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "../memory.hpp"
+#include "../mesh/vtk_cells.hpp"
+#include "detail.hpp"
+#include "grid.hpp"
+
+namespace cellray {
+namespace io {
+
+/// One polyhedron of a file: file cell `cell`, face stream
+/// `[nfaces, n0, ids..., n1, ids...]` at faces[begin, end).
+struct PolyRange {
+  uint64_t cell, begin, end;
+};
+
+/// The polyhedra of a file in file order and where their new cells go:
+/// polyhedron k's tets are [tet_at[k], tet_at[k+1]) of those the split adds
+/// (hexes likewise); sizes npoly + 1 once count_polyhedron_cells ran.
+struct PolyPlan {
+  std::vector<PolyRange> polys;
+  std::vector<uint64_t> tet_at, hex_at;
+  uint64_t new_tets() const { return tet_at.empty() ? 0 : tet_at.back(); }
+  uint64_t new_hexes() const { return hex_at.empty() ? 0 : hex_at.back(); }
+};
+
+/// Each cell array's values of the polyhedra, in polyhedron order (filled
+/// by add_cell_array's `polyhedra_values`), by array name.
+using PolyhedraValues = std::vector<std::pair<std::string, std::vector<float>>>;
+
+constexpr uint64_t poly_grain = 256;  // polyhedra per task
+template <class F> void for_poly_chunks(uint64_t npoly, F const& f) {
+  uint64_t const nchunks = (npoly + poly_grain - 1) / poly_grain;
+  tbb::blocked_range<uint64_t> const all(0, nchunks, 1);
+  if (nchunks <= 1) f(all);
+  else tbb::parallel_for(all, f);
+}
+
+/// Fills `p.tet_at` / `p.hex_at` from `p.polys`, in parallel: each
+/// polyhedron's cell counts from its face sizes alone (decompose_polyhedron
+/// makes a pyramid of a quad, n - 2 tets of an n-gon), so that the split
+/// writes every cell in its final place. A malformed stream counts what it
+/// can; split_polyhedra stops at it before writing anything of it.
+inline void count_polyhedron_cells(NumArray const& faces, PolyPlan& p) {
+  uint64_t const npoly = p.polys.size();
+  p.tet_at.assign(npoly + 1, 0);
+  p.hex_at.assign(npoly + 1, 0);
+  for_poly_chunks(npoly, [&](tbb::blocked_range<uint64_t> const& r) {
+    for (uint64_t k = r.begin() * poly_grain, ke = std::min(npoly, r.end() * poly_grain); k < ke; ++k) {
+      uint64_t i = p.polys[k].begin, e = p.polys[k].end, nt = 0, nh = 0;
+      int64_t const nfaces = i < e ? faces.as_int(i++) : 0;
+      for (int64_t j = 0; j < nfaces && i < e; ++j) {
+        int64_t const n = faces.as_int(i);
+        if (n < 3 || uint64_t(n) >= e - i) break;
+        (n == 4 ? nh : nt) += n == 4 ? 1 : uint64_t(n - 2);
+        i += uint64_t(n) + 1;
+      }
+      p.tet_at[k + 1] = nt;
+      p.hex_at[k + 1] = nh;
+    }
+  });
+  for (uint64_t k = 0; k < npoly; ++k) {
+    p.tet_at[k + 1] += p.tet_at[k];
+    p.hex_at[k + 1] += p.hex_at[k];
+  }
+}
+
+/// Polyhedron p's face stream into `f`; "" or what is wrong, to follow
+/// "polyhedron cell C". `whole`: the stream must use its range exactly (the
+/// legacy connectivity, where the range is the cell's); else entries after
+/// it are ignored (VTU faceoffsets).
+inline std::string parse_polyhedron(NumArray const& faces, PolyRange const& p, PolyhedronFaces& f, bool whole = false) {
+  int64_t const stop = int64_t(p.end);
+  uint64_t i = p.begin;
+  bool ended = false;
+  auto next = [&]() -> int64_t {
+    if (i >= uint64_t(stop)) {
+      ended = true;
+      return 0;
+    }
+    return faces.as_int(i++);
+  };
+  static char const* const early = ": its face stream ends early";
+  int64_t const nfaces = next();
+  if (ended) return early;
+  if (nfaces < 4 || nfaces > stop - int64_t(p.begin)) return " declares " + std::to_string(nfaces) + " faces";
+  f.ids.clear();
+  f.offsets.assign(1, 0);
+  for (int64_t j = 0; j < nfaces; ++j) {
+    int64_t const n = next();
+    if (ended) return early;
+    if (n < 3 || n > stop - int64_t(i))
+      return ": face " + std::to_string(j) + " declares " + std::to_string(n) + " vertices";
+    for (int64_t q = 0; q < n; ++q) f.ids.push_back(uint64_t(next()));  // negative: huge, caught by check_polyhedron
+    f.offsets.push_back(f.ids.size());
+  }
+  if (whole && i != p.end)
+    return ": its " + std::to_string(nfaces) + " faces use " + std::to_string(i - p.begin) + " of its " +
+           std::to_string(p.end - p.begin) + " entries";
+  return "";
+}
+
+/// What split_polyhedra found wrong: the first bad polyhedron (index into
+/// PolyPlan::polys) and what is wrong with it ("polyhedron cell C" + what),
+/// or `too_many` when the centre points would pass 32-bit vertex ids.
+struct PolySplitError {
+  uint64_t at = ~uint64_t(0);
+  std::string what;
+  bool too_many = false;
+  explicit operator bool() const { return !what.empty() || too_many; }
+};
+
+/// Splits the polyhedra of `plan` (count_polyhedron_cells ran) whose face
+/// streams are in `faces`: appends their cells, centre points, point values
+/// and cell values (`cell_values`: those add_cell_array set apart, by name)
+/// to `grid`, whose cells, positions and arrays are the file's, and counts
+/// them in its report. Checks each polyhedron (parse_polyhedron with
+/// `whole`, check_polyhedron) and returns the first error in file order
+/// (the grid is then half written: the caller throws).
+inline PolySplitError split_polyhedra(UnstructuredGrid& grid, NumArray const& faces, PolyPlan const& plan,
+                                      PolyhedraValues const& cell_values, bool whole = false) {
+  uint64_t const np = grid.vertex_count();
+  std::vector<PolyRange> const& polys = plan.polys;
+  std::vector<CellArray*> cell_arrays;  // the array each entry of cell_values fills
+  for (auto const& cv : cell_values)
+    for (auto& a : grid.cell_arrays)
+      if (a.name == cv.first) cell_arrays.push_back(&a);
+  // A point array's centre value: the same-named cell array's (its index in
+  // cell_values), else -1 for the mean of the polyhedron's vertices.
+  std::vector<int> centre_from(grid.point_arrays.size(), -1);
+  for (size_t a = 0; a < grid.point_arrays.size(); ++a)
+    for (size_t v = 0; v < cell_values.size(); ++v)
+      if (cell_values[v].first == grid.point_arrays[a].name) centre_from[a] = int(v);
+  bool const need_means = std::find(centre_from.begin(), centre_from.end(), -1) != centre_from.end();
+
+  uint64_t const npoly = polys.size();
+  uint64_t const nchunks = (npoly + poly_grain - 1) / poly_grain;
+  constexpr uint64_t grain = poly_grain;
+  uint64_t const tet0 = grid.tet_count(), hex0 = grid.hex_count();
+  std::vector<uint64_t> tet_at(plan.tet_at), hex_at(plan.hex_at);
+  for (uint64_t& t : tet_at) t += tet0;
+  for (uint64_t& h : hex_at) h += hex0;
+  uint64_t const new_tets = tet_at[npoly] - tet_at[0], new_hexes = hex_at[npoly] - hex_at[0];
+  cellray::detail::resize_zeroed(grid.tets, 4 * tet_at[npoly]);
+  cellray::detail::resize_zeroed(grid.hexes, 8 * hex_at[npoly]);
+  cellray::detail::resize_zeroed(grid.xyz, 3 * (np + npoly));
+  for (auto& pa : grid.point_arrays) cellray::detail::resize_zeroed(pa.values, np + npoly);
+  std::vector<float*> value_tets(cell_arrays.size()), value_hexes(cell_arrays.size());  // where new values go
+  for (size_t a = 0; a < cell_arrays.size(); ++a) {
+    uint64_t const t0 = cell_arrays[a]->tet_values.size(), h0 = cell_arrays[a]->hex_values.size();
+    cellray::detail::resize_zeroed(cell_arrays[a]->tet_values, t0 + new_tets);
+    cellray::detail::resize_zeroed(cell_arrays[a]->hex_values, h0 + new_hexes);
+    value_tets[a] = cell_arrays[a]->tet_values.data() + t0 - tet_at[0];
+    value_hexes[a] = cell_arrays[a]->hex_values.data() + h0 - hex_at[0];
+  }
+
+  // In parallel (each polyhedron is independent; check and decompose were
+  // ~15% of the load when serial): polyhedron k's cells, centre point
+  // (vertex np + k) and values go straight to their place.
+  std::vector<PolySplitError> errors(nchunks);
+  float* const xyz = grid.xyz.data();
+  uint32_t* const tets = grid.tets.data();
+  uint32_t* const hexes = grid.hexes.data();
+  for_poly_chunks(npoly, [&](tbb::blocked_range<uint64_t> const& r) {
+    PolyhedronFaces f;
+    std::vector<uint64_t> verts;
+    for (uint64_t j = r.begin(); j < r.end(); ++j) {
+      for (uint64_t k = j * grain, ke = std::min(npoly, k + grain); k < ke; ++k) {
+        PolySplitError err;
+        err.what = parse_polyhedron(faces, polys[k], f, whole);
+        if (err.what.empty())
+          if (std::string const bad = check_polyhedron(f, np); !bad.empty()) err.what = " " + bad;
+        if (err.what.empty() && np + k > std::numeric_limits<uint32_t>::max()) err.too_many = true;
+        if (err) {
+          err.at = k;
+          errors[j] = std::move(err);
+          break;
+        }
+        PolyhedronSplit const split = decompose_polyhedron(f, xyz, np + k);
+        assert(split.tets.size() == tet_at[k + 1] - tet_at[k] && split.hexes.size() == hex_at[k + 1] - hex_at[k]);
+        for (int a = 0; a < 3; ++a) xyz[3 * (np + k) + uint64_t(a)] = float(split.centre[a]);
+        if (need_means) {
+          verts.assign(f.ids.begin(), f.ids.end());
+          std::sort(verts.begin(), verts.end());
+          verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+        }
+        for (size_t a = 0; a < grid.point_arrays.size(); ++a) {
+          float value;
+          if (centre_from[a] >= 0) {
+            value = cell_values[size_t(centre_from[a])].second[k];
+          } else {
+            std::vector<float> const& pv = grid.point_arrays[a].values;
+            double sum = 0;
+            for (uint64_t v : verts) sum += pv[v];
+            value = float(sum / double(verts.size()));
+          }
+          grid.point_arrays[a].values[np + k] = value;
+        }
+        uint32_t* t = tets + 4 * tet_at[k];
+        for (auto const& c : split.tets)
+          for (uint64_t v : c) *t++ = uint32_t(v);
+        uint32_t* h = hexes + 8 * hex_at[k];
+        for (auto const& c : split.hexes)
+          for (uint64_t v : c) *h++ = uint32_t(v);
+        for (size_t a = 0; a < cell_arrays.size(); ++a) {
+          float const v = cell_values[a].second[k];
+          std::fill(value_tets[a] + tet_at[k], value_tets[a] + tet_at[k + 1], v);
+          std::fill(value_hexes[a] + hex_at[k], value_hexes[a] + hex_at[k + 1], v);
+        }
+      }
+    }
+  });
+  for (PolySplitError& e : errors)
+    if (e) return std::move(e);
+  grid.report.polyhedron_tets += new_tets;
+  grid.report.polyhedron_pyramids += new_hexes;
+  grid.report.polyhedra_split = npoly;
+  return {};
+}
+
+}  // namespace io
+}  // namespace cellray
