@@ -1,7 +1,8 @@
 // Polyhedra in VTU files (VTK 42, `faces` / `faceoffsets`; issue #21): each
 // is split around an added centre point (its volume centroid) into
-// pyramids (quad faces, stored as collapsed hexahedra) and tetrahedra
-// (other faces, fanned), as foamToVTK -poly-decomp does; the centre takes
+// pyramids and tetrahedra (faces cut into quads and triangles as OpenFOAM
+// cuts them; pyramids stored as collapsed hexahedra), as foamToVTK
+// -poly-decomp does; the centre takes
 // the polyhedron's value where a cell array has the point array's name,
 // and the new cells carry the polyhedron's cell values. Faces that do not
 // close or name points the file lacks are errors naming the cell.
@@ -22,6 +23,8 @@
 #include <cellray/io/vtu.hpp>
 #include <cellray/mesh/validate.hpp>
 
+#include "support/test_data.hpp"
+
 namespace test_io_polyhedra {
 
 using namespace cellray;
@@ -36,11 +39,13 @@ TEST_CASE("polyhedra in a .vtu split into pyramids and tetrahedra around their c
   UnstructuredGrid const g = read_mesh(file("two_polyhedra.vtu"));
   CHECK(g.report.cells_read.at(42) == 2);
   CHECK(g.report.polyhedra_split == 2);
-  // Cube: 6 quads -> 6 pyramids. Prism: 5 quads -> 5 pyramids, 2 pentagons -> 3 + 3 tets.
-  CHECK(g.hex_count() == 11);
-  CHECK(g.tet_count() == 6);
-  CHECK(g.report.polyhedron_pyramids == 11);
-  CHECK(g.report.polyhedron_tets == 6);
+  // Cube: 6 quads -> 6 pyramids. Prism: 5 quads -> 5 pyramids; each
+  // pentagon is cut (as OpenFOAM cuts it) into a triangle and a quad: one
+  // more tet and one more pyramid each.
+  CHECK(g.hex_count() == 13);
+  CHECK(g.tet_count() == 2);
+  CHECK(g.report.polyhedron_pyramids == 13);
+  CHECK(g.report.polyhedron_tets == 2);
   REQUIRE(g.vertex_count() == 18 + 2);
   // Centres at the volume centroids, after the file's points.
   CHECK(g.xyz[3 * 18] == Approx(0.5));
@@ -56,8 +61,8 @@ TEST_CASE("polyhedra in a .vtu split into pyramids and tetrahedra around their c
   // Cell array id: each new cell carries its polyhedron's value.
   CellArray const* id = g.cell_array("id");
   REQUIRE(id);
-  CHECK(id->hex_values == std::vector<float>{1, 1, 1, 1, 1, 1, 2, 2, 2, 2, 2});
-  CHECK(id->tet_values == std::vector<float>(6, 2.f));
+  CHECK(id->hex_values == std::vector<float>{1, 1, 1, 1, 1, 1, 2, 2, 2, 2, 2, 2, 2});
+  CHECK(id->tet_values == std::vector<float>(2, 2.f));
   // Every pyramid's apex is its centre; every cell is positively oriented.
   for (uint64_t c = 0; c < g.hex_count(); ++c)
     for (int k = 4; k < 8; ++k) CHECK(g.hexes[8 * c + uint64_t(k)] == (c < 6 ? 18u : 19u));
@@ -68,7 +73,34 @@ TEST_CASE("polyhedra in a .vtu split into pyramids and tetrahedra around their c
   CHECK(!hr.zero_volume);
   CHECK(!tr.inverted);
   CHECK(!tr.zero_volume);
-  CHECK_THAT(g.report.summary(), Catch::Contains("2 polyhedra split into 6 tetrahedra and 11 pyramids"));
+  CHECK_THAT(g.report.summary(), Catch::Contains("2 polyhedra split into 2 tetrahedra and 13 pyramids"));
+}
+
+TEST_CASE("the snappy flange's polyhedra split into the cells foamToVTK -poly-decomp made of them",
+          "[io][polyhedra][data]") {
+  auto const vtu = test::shared_data_file("openfoam/flange_snappy_89k.vtu");
+  auto const decomp = test::shared_data_file("openfoam/flange_snappy_89k_decomp.vtk");
+  if (!vtu || !decomp) return;
+  UnstructuredGrid const g = read_mesh(*vtu);
+  UnstructuredGrid const d = read_mesh(*decomp);
+  REQUIRE(g.report.polyhedra_split == 10750);
+  // foamToVTK wrote 16 wedge-shaped polyhedra as wedges (3 pyramids and 2
+  // tets each here) and split the rest; where two cuts of a face tie, each
+  // picks its own. Within 0.1% of its pyramids and tets:
+  uint64_t const wedges_as_poly = d.report.cells_read.at(13) - g.report.cells_read.at(13);
+  CHECK(wedges_as_poly == 16);
+  double const pyramids = double(d.report.cells_read.at(14) + 3 * wedges_as_poly);
+  double const tets = double(d.report.cells_read.at(10) + 2 * wedges_as_poly);
+  CHECK(double(g.report.polyhedron_pyramids) == Approx(pyramids).epsilon(1e-3));
+  CHECK(double(g.report.polyhedron_tets) == Approx(tets).epsilon(1e-3));
+  // A fan of a concave face made inverted tets (8,070 of 127,428); the cut
+  // from the widest corner makes none, and no more inverted pyramids than
+  // foamToVTK's file has (its pyramids and hexes: 2,796).
+  ValidationReport const tr = validate(g.tet_mesh().with_array("T"));
+  ValidationReport const hr = validate(g.hex_mesh().with_array("T"));
+  ValidationReport const dh = validate(d.hex_mesh().with_array("T"));
+  CHECK(tr.inverted.count == 0);
+  CHECK(double(hr.inverted.count) <= 1.01 * double(dh.inverted.count));
 }
 
 TEST_CASE("a polyhedron whose faces do not close, or name a missing point, is an error naming it", "[io][polyhedra]") {
@@ -183,8 +215,8 @@ TEST_CASE("legacy .vtk polyhedra (4.2 and 5.1, ASCII and binary) read as the sam
   // The mixed file's own cells come first (hexahedron, wedge as a collapsed
   // hex; tetrahedron), the polyhedra's after them, centres after the points.
   UnstructuredGrid const g = read_mesh(file("mixed_polyhedra_51b.vtk"));
-  CHECK(g.hex_count() == 2 + 11);
-  CHECK(g.tet_count() == 1 + 6);
+  CHECK(g.hex_count() == 2 + 13);
+  CHECK(g.tet_count() == 1 + 2);
   REQUIRE(g.vertex_count() == 36 + 2);
   CHECK(std::vector<uint32_t>(g.hexes.begin(), g.hexes.begin() + 8) == std::vector<uint32_t>{18, 19, 20, 21, 22, 23, 24, 25});
   CHECK(std::vector<uint32_t>(g.tets.begin(), g.tets.begin() + 4) == std::vector<uint32_t>{26, 27, 28, 29});
@@ -194,8 +226,8 @@ TEST_CASE("legacy .vtk polyhedra (4.2 and 5.1, ASCII and binary) read as the sam
   CHECK(g.point_array("T")->values[37] == 20.f);
   CellArray const* id = g.cell_array("id");
   REQUIRE(id);
-  CHECK(id->hex_values == std::vector<float>{0, 0, 1, 1, 1, 1, 1, 1, 2, 2, 2, 2, 2});
-  CHECK(id->tet_values == std::vector<float>{0, 2, 2, 2, 2, 2, 2});
+  CHECK(id->hex_values == std::vector<float>{0, 0, 1, 1, 1, 1, 1, 1, 2, 2, 2, 2, 2, 2, 2});
+  CHECK(id->tet_values == std::vector<float>{0, 2, 2});
 }
 
 namespace {

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iterator>
 #include <random>
 #include <vector>
 
@@ -171,8 +172,9 @@ TEST_CASE("polyhedra decompose into cells that fill them", "[traverse][vtk-cells
     if (flip)  // every face pointing in: the same cells
       for (size_t i = 0; i < g.face_count(); ++i) std::reverse(g.ids.begin() + long(g.offsets[i]), g.ids.begin() + long(g.offsets[i + 1]));
     PolyhedronSplit const s = decompose_polyhedron(g, xyz.data(), 10);
-    REQUIRE(s.hexes.size() == 5);  // the quads: pyramids
-    REQUIRE(s.tets.size() == 6);   // two pentagons fanned into 3 triangles each
+    // The quads: pyramids; each pentagon is cut into a triangle and a quad.
+    REQUIRE(s.hexes.size() == 5 + 2);
+    REQUIRE(s.tets.size() == 2);
     CHECK(s.centre.x == Approx(0).margin(1e-6));  // float corners
     CHECK(s.centre.y == Approx(0).margin(1e-6));
     CHECK(s.centre.z == Approx(0.75));
@@ -199,7 +201,7 @@ TEST_CASE("polyhedra decompose into cells that fill them", "[traverse][vtk-cells
 
   {
     // Two prisms sharing a (non-planar) pentagon, each listing it in its own
-    // rotation and direction: both fan it into the same triangles.
+    // rotation and direction: both cut it into the same triangle and quad.
     std::vector<float> pts = xyz;
     pts[2] = 0.2f;  // lift one corner of the shared pentagon: not planar
     for (int k = 0; k < 5; ++k) {
@@ -216,21 +218,22 @@ TEST_CASE("polyhedra decompose into cells that fill them", "[traverse][vtk-cells
     face_b({14, 13, 12, 11, 10});
     for (uint64_t k = 0; k < 5; ++k) face_b({(k + 1) % 5, k, k + 10, (k + 1) % 5 + 10});
     REQUIRE(check_polyhedron(below, 15).empty());
-    auto shared = [](PolyhedronSplit const& s) {
-      std::vector<std::array<uint64_t, 3>> tri;
-      for (auto const& t : s.tets) {
-        std::array<uint64_t, 3> a{t[0], t[1], t[2]};
-        if (a[0] < 5 && a[1] < 5 && a[2] < 5) {
+    auto shared = [](PolyhedronSplit const& s) {  // the parts of the shared face, as sorted id lists
+      std::vector<std::vector<uint64_t>> parts;
+      auto add = [&](std::vector<uint64_t> a) {
+        if (std::all_of(a.begin(), a.end(), [](uint64_t v) { return v < 5; })) {
           std::sort(a.begin(), a.end());
-          tri.push_back(a);
+          parts.push_back(a);
         }
-      }
-      std::sort(tri.begin(), tri.end());
-      return tri;
+      };
+      for (auto const& t : s.tets) add({t[0], t[1], t[2]});
+      for (auto const& h : s.hexes) add({h[0], h[1], h[2], h[3]});
+      std::sort(parts.begin(), parts.end());
+      return parts;
     };
     auto const a = shared(decompose_polyhedron(f, pts.data(), 15));
     auto const b = shared(decompose_polyhedron(below, pts.data(), 16));
-    CHECK(a.size() == 3);
+    CHECK(a.size() == 2);
     CHECK(a == b);
   }
 
@@ -243,6 +246,105 @@ TEST_CASE("polyhedra decompose into cells that fill them", "[traverse][vtk-cells
   PolyhedronFaces twisted = f;  // one face turned the other way
   std::reverse(twisted.ids.begin(), twisted.ids.begin() + 5);
   CHECK_THAT(check_polyhedron(twisted, 10), Catch::Contains("not consistently oriented"));
+}
+
+namespace {
+
+/// The parts of a face split, each as its sorted ids, sorted: what two
+/// cells sharing the face must agree on.
+std::vector<std::vector<uint64_t>> part_sets(std::vector<std::vector<uint64_t>> parts) {
+  for (auto& q : parts) std::sort(q.begin(), q.end());
+  std::sort(parts.begin(), parts.end());
+  return parts;
+}
+
+/// Twice the signed area of a planar polygon in z = const, seen from +z.
+double area2(std::vector<uint64_t> const& q, std::vector<float> const& xyz) {
+  double a = 0;
+  for (size_t i = 0; i < q.size(); ++i) {
+    uint64_t const u = q[i], v = q[(i + 1) % q.size()];
+    a += double(xyz[3 * u]) * xyz[3 * v + 1] - double(xyz[3 * v]) * xyz[3 * u + 1];
+  }
+  return a;
+}
+
+}  // namespace
+
+TEST_CASE("faces of more than four corners split into triangles and quads as OpenFOAM splits them",
+          "[traverse][vtk-cells]") {
+  std::vector<float> xyz;
+  auto point = [&](double x, double y, double z = 0) {
+    xyz.insert(xyz.end(), {float(x), float(y), float(z)});
+    return uint64_t(xyz.size() / 3 - 1);
+  };
+  // A regular hexagon: every corner 120 degrees; the cut from any corner
+  // that halves its angle ends at the opposite corner: two quads.
+  std::vector<uint64_t> hexagon;
+  for (int k = 0; k < 6; ++k) hexagon.push_back(point(std::cos(M_PI * k / 3), std::sin(M_PI * k / 3)));
+  auto const hq = part_sets(split_face(hexagon, xyz.data()));
+  REQUIRE(hq.size() == 2);
+  CHECK(hq[0].size() == 4);
+  CHECK(hq[1].size() == 4);
+  std::vector<uint64_t> cut;  // the corners both quads hold: opposite ones
+  std::set_intersection(hq[0].begin(), hq[0].end(), hq[1].begin(), hq[1].end(), std::back_inserter(cut));
+  REQUIRE(cut.size() == 2);
+  CHECK(cut[1] - cut[0] == 3);
+  // An L (a concave hexagon): the cut starts at the reflex corner (270
+  // degrees) and runs to the corner opposite it, halving it: two quads, and
+  // no part outside the face.
+  std::vector<uint64_t> const ell = {point(0, 0), point(2, 0), point(2, 1), point(1, 1), point(1, 2), point(0, 2)};
+  CHECK(part_sets(split_face(ell, xyz.data())) ==
+        std::vector<std::vector<uint64_t>>{{6, 7, 8, 9}, {6, 9, 10, 11}});
+  // A square with a hanging node on one side (snappyHexMesh's refinement):
+  // the straight corner (180 degrees) is the widest; the cut from it that
+  // best halves it ends at a far corner: a triangle and a quad.
+  std::vector<uint64_t> const hanging = {point(0, 0), point(1, 0), point(2, 0), point(2, 2), point(0, 2)};
+  auto const h = split_face(hanging, xyz.data());
+  REQUIRE(h.size() == 2);
+  CHECK(h[0].size() + h[1].size() == 7);
+  CHECK(std::count(h[0].begin(), h[0].end(), hanging[1]) + std::count(h[1].begin(), h[1].end(), hanging[1]) == 2);
+  // Every part keeps the face's rotation, and the parts tile it.
+  for (std::vector<uint64_t> const* face : std::initializer_list<std::vector<uint64_t> const*>{&hexagon, &ell, &hanging}) {
+    double sum = 0;
+    for (auto const& q : split_face(*face, xyz.data())) {
+      CHECK(area2(q, xyz) > 0);
+      sum += area2(q, xyz);
+    }
+    CHECK(sum == Approx(area2(*face, xyz)));
+  }
+
+  // Random star-shaped, slightly non-planar polygons of 5 to 12 corners:
+  // listed from any corner, in either rotation, the same parts.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int trial = 0; trial < 300; ++trial) {
+    int const n = 5 + trial % 8;
+    // Corner k (in angular order) gets id first + perm[k]: random ids.
+    uint64_t const first = xyz.size() / 3;
+    std::vector<uint64_t> perm(static_cast<size_t>(n)), ring(static_cast<size_t>(n));
+    for (int k = 0; k < n; ++k) perm[size_t(k)] = uint64_t(k);
+    std::shuffle(perm.begin(), perm.end(), rng);
+    xyz.resize(xyz.size() + 3 * size_t(n));
+    for (int k = 0; k < n; ++k) {
+      double const a = 2 * M_PI * (k + 0.4 * u(rng)) / n, r = 0.5 + u(rng);
+      ring[size_t(k)] = first + perm[size_t(k)];
+      float* q = &xyz[3 * ring[size_t(k)]];
+      q[0] = float(r * std::cos(a)), q[1] = float(r * std::sin(a)), q[2] = float(0.05 * u(rng));
+    }
+    auto const ref = part_sets(split_face(ring, xyz.data()));
+    size_t corners = 0;
+    for (auto const& q : ref) {
+      CHECK((q.size() == 3 || q.size() == 4));
+      corners += q.size();
+    }
+    CHECK(corners == size_t(n) + 2 * (ref.size() - 1));  // each cut adds its two ends again
+    int const shift = int(u(rng) * n);
+    std::vector<uint64_t> other(ring);
+    std::rotate(other.begin(), other.begin() + shift, other.end());
+    CHECK(part_sets(split_face(other, xyz.data())) == ref);
+    std::reverse(other.begin(), other.end());
+    CHECK(part_sets(split_face(other, xyz.data())) == ref);
+  }
 }
 
 }  // namespace test_traverse_vtk_cells

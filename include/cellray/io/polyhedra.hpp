@@ -10,14 +10,13 @@
 // centre), else the mean of its vertices. The new cells carry the
 // polyhedron's cell-array values.
 //
-// A reader plans the split before storing any cell (PolyPlan: where each
-// polyhedron's cells go), so that the cells' storage is reserved once for
-// the file's cells and the polyhedra's (growing it after the file's cells
+// A reader plans the split before storing any cell (PolyPlan: at most how
+// many cells each polyhedron adds), so that the cells' storage is reserved
+// once for the file's cells and the polyhedra's (growing it after the file's cells
 // cost a copy and the first-write faults of the first buffer, ~15% of the
 // flange's load), then splits after its arrays are read (split_polyhedra).
 
 #include <algorithm>
-#include <cassert>
 #include <cstdint>
 #include <limits>
 #include <string>
@@ -41,9 +40,11 @@ struct PolyRange {
   uint64_t cell, begin, end;
 };
 
-/// The polyhedra of a file in file order and where their new cells go:
-/// polyhedron k's tets are [tet_at[k], tet_at[k+1]) of those the split adds
-/// (hexes likewise); sizes npoly + 1 once count_polyhedron_cells ran.
+/// The polyhedra of a file in file order and, for reserving storage, at
+/// most how many cells each adds: polyhedron k adds at most tet_at[k+1] -
+/// tet_at[k] tets (hexes likewise); sizes npoly + 1 once
+/// count_polyhedron_cells ran. The split's own counts depend on the faces'
+/// shapes (split_face), known once the positions are.
 struct PolyPlan {
   std::vector<PolyRange> polys;
   std::vector<uint64_t> tet_at, hex_at;
@@ -63,11 +64,11 @@ template <class F> void for_poly_chunks(uint64_t npoly, F const& f) {
   else tbb::parallel_for(all, f);
 }
 
-/// Fills `p.tet_at` / `p.hex_at` from `p.polys`, in parallel: each
-/// polyhedron's cell counts from its face sizes alone (decompose_polyhedron
-/// makes a pyramid of a quad, n - 2 tets of an n-gon), so that the split
-/// writes every cell in its final place. A malformed stream counts what it
-/// can; split_polyhedra stops at it before writing anything of it.
+/// Fills `p.tet_at` / `p.hex_at` from `p.polys`, in parallel: bounds on
+/// each polyhedron's cells from its face sizes alone (split_face makes a
+/// tet of a triangle, a pyramid of a quad, and of an n-gon at most n - 2
+/// triangles and at most (n - 2) / 2 quads). A malformed stream counts what
+/// it can; split_polyhedra stops at it.
 inline void count_polyhedron_cells(NumArray const& faces, PolyPlan& p) {
   uint64_t const npoly = p.polys.size();
   p.tet_at.assign(npoly + 1, 0);
@@ -79,7 +80,8 @@ inline void count_polyhedron_cells(NumArray const& faces, PolyPlan& p) {
       for (int64_t j = 0; j < nfaces && i < e; ++j) {
         int64_t const n = faces.as_int(i);
         if (n < 3 || uint64_t(n) >= e - i) break;
-        (n == 4 ? nh : nt) += n == 4 ? 1 : uint64_t(n - 2);
+        if (n == 4) nh += 1;
+        else nt += uint64_t(n - 2), nh += uint64_t(n - 2) / 2;
         i += uint64_t(n) + 1;
       }
       p.tet_at[k + 1] = nt;
@@ -137,13 +139,13 @@ struct PolySplitError {
   explicit operator bool() const { return !what.empty() || too_many; }
 };
 
-/// Splits the polyhedra of `plan` (count_polyhedron_cells ran) whose face
-/// streams are in `faces`: appends their cells, centre points, point values
-/// and cell values (`cell_values`: those add_cell_array set apart, by name)
-/// to `grid`, whose cells, positions and arrays are the file's, and counts
-/// them in its report. Checks each polyhedron (parse_polyhedron with
-/// `whole`, check_polyhedron) and returns the first error in file order
-/// (the grid is then half written: the caller throws).
+/// Splits the polyhedra of `plan` whose face streams are in `faces`:
+/// appends their cells, centre points, point values and cell values
+/// (`cell_values`: those add_cell_array set apart, by name) to `grid`, whose
+/// cells, positions and arrays are the file's, and counts them in its
+/// report. Checks each polyhedron (parse_polyhedron with `whole`,
+/// check_polyhedron) and returns the first error in file order (the grid
+/// is then half written: the caller throws).
 inline PolySplitError split_polyhedra(UnstructuredGrid& grid, NumArray const& faces, PolyPlan const& plan,
                                       PolyhedraValues const& cell_values, bool whole = false) {
   uint64_t const np = grid.vertex_count();
@@ -163,11 +165,65 @@ inline PolySplitError split_polyhedra(UnstructuredGrid& grid, NumArray const& fa
   uint64_t const npoly = polys.size();
   uint64_t const nchunks = (npoly + poly_grain - 1) / poly_grain;
   constexpr uint64_t grain = poly_grain;
+
+  // Pass 1, in parallel (each polyhedron is independent; check and
+  // decompose were ~15% of the load when serial): each chunk's cells,
+  // centres and per-polyhedron counts, kept until their places are known.
+  // The centres' point values need the vertex means, taken here too.
+  struct Chunk {
+    std::vector<uint32_t> tets, hexes;
+    std::vector<float> centres, means;  // 3 per polyhedron; one per polyhedron and mean-valued array
+    PolySplitError error;
+  };
+  std::vector<Chunk> chunks(nchunks);
+  std::vector<uint64_t> tet_at(npoly + 1, 0), hex_at(npoly + 1, 0);  // counts, then prefix sums
+  float const* const xyz_in = grid.xyz.data();
+  for_poly_chunks(npoly, [&](tbb::blocked_range<uint64_t> const& r) {
+    PolyhedronFaces f;
+    std::vector<uint64_t> verts;
+    for (uint64_t j = r.begin(); j < r.end(); ++j) {
+      Chunk& ch = chunks[j];
+      for (uint64_t k = j * grain, ke = std::min(npoly, k + grain); k < ke; ++k) {
+        PolySplitError err;
+        err.what = parse_polyhedron(faces, polys[k], f, whole);
+        if (err.what.empty())
+          if (std::string const bad = check_polyhedron(f, np); !bad.empty()) err.what = " " + bad;
+        if (err.what.empty() && np + k > std::numeric_limits<uint32_t>::max()) err.too_many = true;
+        if (err) {
+          err.at = k;
+          ch.error = std::move(err);
+          break;
+        }
+        PolyhedronSplit const split = decompose_polyhedron(f, xyz_in, np + k);
+        tet_at[k + 1] = split.tets.size();
+        hex_at[k + 1] = split.hexes.size();
+        for (auto const& c : split.tets)
+          for (uint64_t v : c) ch.tets.push_back(uint32_t(v));
+        for (auto const& c : split.hexes)
+          for (uint64_t v : c) ch.hexes.push_back(uint32_t(v));
+        for (int a = 0; a < 3; ++a) ch.centres.push_back(float(split.centre[a]));
+        if (need_means) {
+          verts.assign(f.ids.begin(), f.ids.end());
+          std::sort(verts.begin(), verts.end());
+          verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+          for (size_t a = 0; a < grid.point_arrays.size(); ++a) {
+            if (centre_from[a] >= 0) continue;
+            std::vector<float> const& pv = grid.point_arrays[a].values;
+            double sum = 0;
+            for (uint64_t v : verts) sum += pv[v];
+            ch.means.push_back(float(sum / double(verts.size())));
+          }
+        }
+      }
+    }
+  });
+  for (Chunk& c : chunks)
+    if (c.error) return std::move(c.error);
+
   uint64_t const tet0 = grid.tet_count(), hex0 = grid.hex_count();
-  std::vector<uint64_t> tet_at(plan.tet_at), hex_at(plan.hex_at);
-  for (uint64_t& t : tet_at) t += tet0;
-  for (uint64_t& h : hex_at) h += hex0;
-  uint64_t const new_tets = tet_at[npoly] - tet_at[0], new_hexes = hex_at[npoly] - hex_at[0];
+  tet_at[0] = tet0, hex_at[0] = hex0;
+  for (uint64_t k = 0; k < npoly; ++k) tet_at[k + 1] += tet_at[k], hex_at[k + 1] += hex_at[k];
+  uint64_t const new_tets = tet_at[npoly] - tet0, new_hexes = hex_at[npoly] - hex0;
   cellray::detail::resize_zeroed(grid.tets, 4 * tet_at[npoly]);
   cellray::detail::resize_zeroed(grid.hexes, 8 * hex_at[npoly]);
   cellray::detail::resize_zeroed(grid.xyz, 3 * (np + npoly));
@@ -177,68 +233,36 @@ inline PolySplitError split_polyhedra(UnstructuredGrid& grid, NumArray const& fa
     uint64_t const t0 = cell_arrays[a]->tet_values.size(), h0 = cell_arrays[a]->hex_values.size();
     cellray::detail::resize_zeroed(cell_arrays[a]->tet_values, t0 + new_tets);
     cellray::detail::resize_zeroed(cell_arrays[a]->hex_values, h0 + new_hexes);
-    value_tets[a] = cell_arrays[a]->tet_values.data() + t0 - tet_at[0];
-    value_hexes[a] = cell_arrays[a]->hex_values.data() + h0 - hex_at[0];
+    value_tets[a] = cell_arrays[a]->tet_values.data() + t0 - tet0;
+    value_hexes[a] = cell_arrays[a]->hex_values.data() + h0 - hex0;
   }
 
-  // In parallel (each polyhedron is independent; check and decompose were
-  // ~15% of the load when serial): polyhedron k's cells, centre point
-  // (vertex np + k) and values go straight to their place.
-  std::vector<PolySplitError> errors(nchunks);
+  // Pass 2, in parallel: each chunk's cells, centres (vertex np + k) and
+  // values to their places.
   float* const xyz = grid.xyz.data();
   uint32_t* const tets = grid.tets.data();
   uint32_t* const hexes = grid.hexes.data();
   for_poly_chunks(npoly, [&](tbb::blocked_range<uint64_t> const& r) {
-    PolyhedronFaces f;
-    std::vector<uint64_t> verts;
     for (uint64_t j = r.begin(); j < r.end(); ++j) {
-      for (uint64_t k = j * grain, ke = std::min(npoly, k + grain); k < ke; ++k) {
-        PolySplitError err;
-        err.what = parse_polyhedron(faces, polys[k], f, whole);
-        if (err.what.empty())
-          if (std::string const bad = check_polyhedron(f, np); !bad.empty()) err.what = " " + bad;
-        if (err.what.empty() && np + k > std::numeric_limits<uint32_t>::max()) err.too_many = true;
-        if (err) {
-          err.at = k;
-          errors[j] = std::move(err);
-          break;
-        }
-        PolyhedronSplit const split = decompose_polyhedron(f, xyz, np + k);
-        assert(split.tets.size() == tet_at[k + 1] - tet_at[k] && split.hexes.size() == hex_at[k + 1] - hex_at[k]);
-        for (int a = 0; a < 3; ++a) xyz[3 * (np + k) + uint64_t(a)] = float(split.centre[a]);
-        if (need_means) {
-          verts.assign(f.ids.begin(), f.ids.end());
-          std::sort(verts.begin(), verts.end());
-          verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-        }
-        for (size_t a = 0; a < grid.point_arrays.size(); ++a) {
-          float value;
-          if (centre_from[a] >= 0) {
-            value = cell_values[size_t(centre_from[a])].second[k];
-          } else {
-            std::vector<float> const& pv = grid.point_arrays[a].values;
-            double sum = 0;
-            for (uint64_t v : verts) sum += pv[v];
-            value = float(sum / double(verts.size()));
-          }
-          grid.point_arrays[a].values[np + k] = value;
-        }
-        uint32_t* t = tets + 4 * tet_at[k];
-        for (auto const& c : split.tets)
-          for (uint64_t v : c) *t++ = uint32_t(v);
-        uint32_t* h = hexes + 8 * hex_at[k];
-        for (auto const& c : split.hexes)
-          for (uint64_t v : c) *h++ = uint32_t(v);
+      Chunk& ch = chunks[j];
+      uint64_t const k0 = j * grain, ke = std::min(npoly, k0 + grain);
+      std::copy(ch.tets.begin(), ch.tets.end(), tets + 4 * tet_at[k0]);
+      std::copy(ch.hexes.begin(), ch.hexes.end(), hexes + 8 * hex_at[k0]);
+      std::copy(ch.centres.begin(), ch.centres.end(), xyz + 3 * (np + k0));
+      float const* mean = ch.means.data();
+      for (uint64_t k = k0; k < ke; ++k) {
+        for (size_t a = 0; a < grid.point_arrays.size(); ++a)
+          grid.point_arrays[a].values[np + k] =
+              centre_from[a] >= 0 ? cell_values[size_t(centre_from[a])].second[k] : *mean++;
         for (size_t a = 0; a < cell_arrays.size(); ++a) {
           float const v = cell_values[a].second[k];
           std::fill(value_tets[a] + tet_at[k], value_tets[a] + tet_at[k + 1], v);
           std::fill(value_hexes[a] + hex_at[k], value_hexes[a] + hex_at[k + 1], v);
         }
       }
+      ch = Chunk();  // its memory back before the next chunk's
     }
   });
-  for (PolySplitError& e : errors)
-    if (e) return std::move(e);
   grid.report.polyhedron_tets += new_tets;
   grid.report.polyhedron_pyramids += new_hexes;
   grid.report.polyhedra_split = npoly;

@@ -21,11 +21,14 @@
 // Polyhedra (VTK 42) are decomposed around one added centre vertex, as
 // `foamToVTK -poly-decomp` and ParaView do: a triangle face and the centre
 // make a tetrahedron, a quad face and the centre a pyramid; a face of more
-// corners is fanned into triangles from its lowest vertex id (the same
-// triangles from both cells that share it).
+// corners is split into triangles and quads as OpenFOAM splits it
+// (face::trianglesQuads, which foamToVTK uses), each then a tetrahedron or a
+// pyramid: the same cells as foamToVTK's output, and both cells that share
+// a face split it alike (split_face).
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -101,6 +104,112 @@ inline std::string check_polyhedron(PolyhedronFaces const& f, uint64_t vertex_co
   return {};
 }
 
+namespace detail {
+
+/// OpenFOAM's face split (face::split in SPLITQUAD mode, rewritten): a face
+/// of more than 4 corners is cut from its corner with the largest interior
+/// angle to the corner that best bisects that angle, and both parts are cut
+/// again until each is a triangle or a quad. The parts of `face` go to `out`
+/// in its rotation. A face of more than
+/// `max_split_corners` corners (no mesh generator makes one; the split
+/// costs n^2) is fanned from its first corner instead.
+inline constexpr size_t max_split_corners = 1024;
+inline void split_polygon(std::vector<uint64_t> const& face, float const* xyz,
+                          std::vector<std::vector<uint64_t>>& out) {
+  constexpr double pi = 3.14159265358979323846;
+  // Angles this close are a tie, which the first corner (in the canonical
+  // order) wins: float positions move an angle by ~1e-7, and a regular
+  // polygon, or a side with several hanging nodes, must not be split by
+  // that noise (a file's binary and six-digit text copies split alike).
+  constexpr double tie = 1e-5;
+  auto angle_between = [](glm::dvec3 const& a, glm::dvec3 const& b) {
+    return std::acos(std::max(-1.0, std::min(1.0, glm::dot(a, b))));
+  };
+  if (face.size() > max_split_corners) {
+    for (size_t j = 1; j + 1 < face.size(); ++j) out.push_back({face[0], face[j], face[j + 1]});
+    return;
+  }
+  std::vector<std::vector<uint64_t>> todo{face};
+  std::vector<glm::dvec3> edge;
+  while (!todo.empty()) {
+    std::vector<uint64_t> const ids = std::move(todo.back());
+    todo.pop_back();
+    size_t const n = ids.size();
+    if (n <= 4) {
+      out.push_back(ids);
+      continue;
+    }
+    auto p = [&](size_t i) {
+      uint64_t const v = ids[i % n];
+      return glm::dvec3(xyz[3 * v], xyz[3 * v + 1], xyz[3 * v + 2]);
+    };
+    // Area normal from the triangles (corner, next corner, vertex mean).
+    glm::dvec3 mean(0.0), normal(0.0);
+    for (size_t i = 0; i < n; ++i) mean += p(i);
+    mean /= double(n);
+    for (size_t i = 0; i < n; ++i) normal += glm::cross(p(i) - mean, p(i + 1) - mean);
+    edge.resize(n);  // unit edge i: corner i to i + 1
+    for (size_t i = 0; i < n; ++i) {
+      glm::dvec3 const e = p(i + 1) - p(i);
+      double const len = glm::length(e);
+      edge[i] = len > 0 ? e / len : e;
+    }
+    // The interior angle at each corner: pi -/+ the turn between its edges,
+    // + where the turn is against the face's normal (a concave corner).
+    size_t start = 0;
+    double widest = -1;
+    for (size_t i = 0; i < n; ++i) {
+      glm::dvec3 const& in = edge[(i + n - 1) % n];
+      glm::dvec3 const& next = edge[i];
+      double const turn = angle_between(in, next);
+      double const interior = glm::dot(glm::cross(next, in), normal) > 0 ? pi + turn : pi - turn;
+      if (interior > widest + tie) widest = interior, start = i;
+    }
+    // The diagonal from `start` nearest to halving its angle (measured from
+    // its outgoing edge), among the corners two or more steps away.
+    size_t cut = start + 2;
+    double best = pi;
+    for (size_t k = 2; k + 1 < n; ++k) {
+      glm::dvec3 d = p(start + k) - p(start);
+      double const len = glm::length(d);
+      if (len > 0) d /= len;
+      double const off = std::abs(angle_between(d, edge[start]) - widest / 2);
+      if (off < best - tie) best = off, cut = start + k;
+    }
+    std::vector<uint64_t> a, b;
+    for (size_t i = start; i <= cut; ++i) a.push_back(ids[i % n]);
+    for (size_t i = cut; i <= start + n; ++i) b.push_back(ids[i % n]);
+    todo.push_back(std::move(b));  // a first, as OpenFOAM orders the parts
+    todo.push_back(std::move(a));
+  }
+}
+
+}  // namespace detail
+
+/// A face's triangles and quads (detail::split_polygon), in the face's own
+/// rotation. The split is made on the face in a canonical order -- from its
+/// lowest id, towards the lower of that id's neighbours -- so that the two
+/// cells sharing the face, which list it in opposite rotations and from any
+/// corner, get the same parts, bit for bit (no gaps, no overlaps).
+inline std::vector<std::vector<uint64_t>> split_face(std::vector<uint64_t> const& face, float const* xyz) {
+  size_t const n = face.size();
+  std::vector<std::vector<uint64_t>> parts;
+  if (n <= 4) {
+    parts.push_back(face);
+    return parts;
+  }
+  size_t low = 0;
+  for (size_t i = 1; i < n; ++i)
+    if (face[i] < face[low]) low = i;
+  bool const forward = face[(low + 1) % n] < face[(low + n - 1) % n];
+  std::vector<uint64_t> canonical(n);
+  for (size_t i = 0; i < n; ++i) canonical[i] = face[forward ? (low + i) % n : (low + n - i) % n];
+  detail::split_polygon(canonical, xyz, parts);
+  if (!forward)
+    for (auto& q : parts) std::reverse(q.begin(), q.end());
+  return parts;
+}
+
 /// Decomposes a closed polyhedron (check_polyhedron) around a centre that
 /// gets vertex id `centre_id`: at the volume centroid (OpenFOAM's cell
 /// centre, where foamToVTK puts it), computed in double from the faces
@@ -137,22 +246,14 @@ inline PolyhedronSplit decompose_polyhedron(PolyhedronFaces const& f, float cons
   // Outward faces give a positive volume: a cell's base must then run the
   // other way (a hex's bottom quad and a tet's first triangle face inward).
   bool const outward = volume > 0;
+  std::vector<uint64_t> face;
   for (size_t i = 0; i < nf; ++i) {
     uint64_t const b = f.offsets[i], e = f.offsets[i + 1];
-    auto corner = [&](uint64_t k) { return f.ids[outward ? e - 1 - (k - b) : k]; };
-    if (e - b == 4) {
-      out.hexes.push_back({corner(b), corner(b + 1), corner(b + 2), corner(b + 3), centre_id, centre_id, centre_id,
-                           centre_id});
-    } else {
-      // Fanned from the face's lowest vertex id: the polyhedron on the other
-      // side of the face (which lists it in its own rotation) fans it the
-      // same way, so the two share every triangle (no gaps, no overlaps).
-      uint64_t const n = e - b;
-      uint64_t m = b;
-      for (uint64_t k = b; k < e; ++k)
-        if (corner(k) < corner(m)) m = k;
-      auto at = [&](uint64_t j) { return corner(b + (m - b + j) % n); };
-      for (uint64_t j = 1; j + 1 < n; ++j) out.tets.push_back({at(0), at(j), at(j + 1), centre_id});
+    face.clear();
+    for (uint64_t k = b; k < e; ++k) face.push_back(f.ids[outward ? e - 1 - (k - b) : k]);
+    for (auto const& q : split_face(face, xyz)) {
+      if (q.size() == 4) out.hexes.push_back({q[0], q[1], q[2], q[3], centre_id, centre_id, centre_id, centre_id});
+      else out.tets.push_back({q[0], q[1], q[2], centre_id});
     }
   }
   return out;
