@@ -31,6 +31,7 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -106,16 +107,23 @@ inline std::string check_polyhedron(PolyhedronFaces const& f, uint64_t vertex_co
 
 namespace detail {
 
+/// Scratch of split_polygon, one per thread: a reader splits millions of
+/// faces, and fresh vectors per face were most of the split's time.
+struct PolygonScratch {
+  std::vector<uint64_t> ids;                      // the parts still to cut, one after another
+  std::vector<std::pair<size_t, size_t>> todo;    // (offset in ids, corners)
+  std::vector<glm::dvec3> edge;
+};
+
 /// OpenFOAM's face split (face::split in SPLITQUAD mode, rewritten): a face
 /// of more than 4 corners is cut from its corner with the largest interior
 /// angle to the corner that best bisects that angle, and both parts are cut
-/// again until each is a triangle or a quad. The parts of `face` go to `out`
-/// in its rotation. A face of more than
-/// `max_split_corners` corners (no mesh generator makes one; the split
-/// costs n^2) is fanned from its first corner instead.
+/// again until each is a triangle or a quad. Calls emit(ids, n) for each
+/// part (n = 3 or 4) of the n0 corners at `face`, in its rotation. A face
+/// of more than `max_split_corners` corners (no mesh generator makes one;
+/// the split costs n^2) is fanned from its first corner instead.
 inline constexpr size_t max_split_corners = 1024;
-inline void split_polygon(std::vector<uint64_t> const& face, float const* xyz,
-                          std::vector<std::vector<uint64_t>>& out) {
+template <class Emit> void split_polygon(uint64_t const* face, size_t n0, float const* xyz, Emit const& emit) {
   constexpr double pi = 3.14159265358979323846;
   // Angles this close are a tie, which the first corner (in the canonical
   // order) wins: float positions move an angle by ~1e-7, and a regular
@@ -125,22 +133,28 @@ inline void split_polygon(std::vector<uint64_t> const& face, float const* xyz,
   auto angle_between = [](glm::dvec3 const& a, glm::dvec3 const& b) {
     return std::acos(std::max(-1.0, std::min(1.0, glm::dot(a, b))));
   };
-  if (face.size() > max_split_corners) {
-    for (size_t j = 1; j + 1 < face.size(); ++j) out.push_back({face[0], face[j], face[j + 1]});
+  if (n0 > max_split_corners) {
+    for (size_t j = 1; j + 1 < n0; ++j) {
+      uint64_t const tri[3] = {face[0], face[j], face[j + 1]};
+      emit(tri, size_t(3));
+    }
     return;
   }
-  std::vector<std::vector<uint64_t>> todo{face};
-  std::vector<glm::dvec3> edge;
-  while (!todo.empty()) {
-    std::vector<uint64_t> const ids = std::move(todo.back());
-    todo.pop_back();
-    size_t const n = ids.size();
+  thread_local PolygonScratch scratch;
+  std::vector<uint64_t>& ids = scratch.ids;
+  std::vector<glm::dvec3>& edge = scratch.edge;
+  ids.assign(face, face + n0);
+  scratch.todo.assign(1, {size_t(0), n0});
+  while (!scratch.todo.empty()) {
+    size_t const off = scratch.todo.back().first, n = scratch.todo.back().second;
+    scratch.todo.pop_back();
     if (n <= 4) {
-      out.push_back(ids);
+      emit(ids.data() + off, n);
       continue;
     }
+    auto id = [&](size_t i) { return ids[off + i % n]; };
     auto p = [&](size_t i) {
-      uint64_t const v = ids[i % n];
+      uint64_t const v = id(i);
       return glm::dvec3(xyz[3 * v], xyz[3 * v + 1], xyz[3 * v + 2]);
     };
     // Area normal from the triangles (corner, next corner, vertex mean).
@@ -173,40 +187,53 @@ inline void split_polygon(std::vector<uint64_t> const& face, float const* xyz,
       glm::dvec3 d = p(start + k) - p(start);
       double const len = glm::length(d);
       if (len > 0) d /= len;
-      double const off = std::abs(angle_between(d, edge[start]) - widest / 2);
-      if (off < best - tie) best = off, cut = start + k;
+      double const off_angle = std::abs(angle_between(d, edge[start]) - widest / 2);
+      if (off_angle < best - tie) best = off_angle, cut = start + k;
     }
-    std::vector<uint64_t> a, b;
-    for (size_t i = start; i <= cut; ++i) a.push_back(ids[i % n]);
-    for (size_t i = cut; i <= start + n; ++i) b.push_back(ids[i % n]);
-    todo.push_back(std::move(b));  // a first, as OpenFOAM orders the parts
-    todo.push_back(std::move(a));
+    // The parts [start, cut] and [cut, start + n], appended; the first is
+    // cut first, as OpenFOAM orders them.
+    size_t const a = ids.size(), na = cut - start + 1, nb = n - na + 2;
+    for (size_t i = start; i <= cut; ++i) ids.push_back(id(i));
+    for (size_t i = cut; i <= start + n; ++i) ids.push_back(id(i));
+    scratch.todo.push_back({a + na, nb});
+    scratch.todo.push_back({a, na});
   }
+}
+
+/// Calls emit(ids, n) for each triangle and quad of split_polygon's split
+/// of `face` (n0 corners), each in the face's rotation. The split is made
+/// on the face in a canonical order -- from its lowest id, towards the
+/// lower of that id's neighbours -- so that the two cells sharing the face,
+/// which list it in opposite rotations and from any corner, get the same
+/// parts, bit for bit (no gaps, no overlaps).
+template <class Emit> void for_each_face_part(uint64_t const* face, size_t n0, float const* xyz, Emit const& emit) {
+  if (n0 <= 4) {
+    emit(face, n0);
+    return;
+  }
+  size_t low = 0;
+  for (size_t i = 1; i < n0; ++i)
+    if (face[i] < face[low]) low = i;
+  bool const forward = face[(low + 1) % n0] < face[(low + n0 - 1) % n0];
+  thread_local std::vector<uint64_t> canonical;
+  canonical.resize(n0);
+  for (size_t i = 0; i < n0; ++i) canonical[i] = face[forward ? (low + i) % n0 : (low + n0 - i) % n0];
+  split_polygon(canonical.data(), n0, xyz, [&](uint64_t const* q, size_t n) {
+    if (forward) return emit(q, n);
+    uint64_t r[4];
+    for (size_t i = 0; i < n; ++i) r[i] = q[n - 1 - i];
+    emit(static_cast<uint64_t const*>(r), n);
+  });
 }
 
 }  // namespace detail
 
-/// A face's triangles and quads (detail::split_polygon), in the face's own
-/// rotation. The split is made on the face in a canonical order -- from its
-/// lowest id, towards the lower of that id's neighbours -- so that the two
-/// cells sharing the face, which list it in opposite rotations and from any
-/// corner, get the same parts, bit for bit (no gaps, no overlaps).
+/// The triangles and quads a polyhedron's face is cut into
+/// (detail::for_each_face_part), each in the face's rotation.
 inline std::vector<std::vector<uint64_t>> split_face(std::vector<uint64_t> const& face, float const* xyz) {
-  size_t const n = face.size();
   std::vector<std::vector<uint64_t>> parts;
-  if (n <= 4) {
-    parts.push_back(face);
-    return parts;
-  }
-  size_t low = 0;
-  for (size_t i = 1; i < n; ++i)
-    if (face[i] < face[low]) low = i;
-  bool const forward = face[(low + 1) % n] < face[(low + n - 1) % n];
-  std::vector<uint64_t> canonical(n);
-  for (size_t i = 0; i < n; ++i) canonical[i] = face[forward ? (low + i) % n : (low + n - i) % n];
-  detail::split_polygon(canonical, xyz, parts);
-  if (!forward)
-    for (auto& q : parts) std::reverse(q.begin(), q.end());
+  detail::for_each_face_part(face.data(), face.size(), xyz,
+                             [&](uint64_t const* q, size_t n) { parts.emplace_back(q, q + n); });
   return parts;
 }
 
@@ -249,11 +276,19 @@ inline PolyhedronSplit decompose_polyhedron(PolyhedronFaces const& f, float cons
   std::vector<uint64_t> face;
   for (size_t i = 0; i < nf; ++i) {
     uint64_t const b = f.offsets[i], e = f.offsets[i + 1];
-    face.clear();
-    for (uint64_t k = b; k < e; ++k) face.push_back(f.ids[outward ? e - 1 - (k - b) : k]);
-    for (auto const& q : split_face(face, xyz)) {
-      if (q.size() == 4) out.hexes.push_back({q[0], q[1], q[2], q[3], centre_id, centre_id, centre_id, centre_id});
-      else out.tets.push_back({q[0], q[1], q[2], centre_id});
+    auto corner = [&](uint64_t k) { return f.ids[outward ? e - 1 - (k - b) : k]; };
+    if (e - b == 3) {
+      out.tets.push_back({corner(b), corner(b + 1), corner(b + 2), centre_id});
+    } else if (e - b == 4) {
+      out.hexes.push_back({corner(b), corner(b + 1), corner(b + 2), corner(b + 3), centre_id, centre_id, centre_id,
+                           centre_id});
+    } else {
+      face.clear();
+      for (uint64_t k = b; k < e; ++k) face.push_back(corner(k));
+      detail::for_each_face_part(face.data(), face.size(), xyz, [&](uint64_t const* q, size_t n) {
+        if (n == 4) out.hexes.push_back({q[0], q[1], q[2], q[3], centre_id, centre_id, centre_id, centre_id});
+        else out.tets.push_back({q[0], q[1], q[2], centre_id});
+      });
     }
   }
   return out;
