@@ -1,7 +1,7 @@
-// libFuzzer harness: the gmsh MSH reader (2.2 and 4.1 ASCII) on arbitrary
-// bytes. It must return a consistent grid or throw IoError; anything else
-// (another exception, a crash, a sanitizer report, a broken invariant) is a
-// finding. Seeds: tests/fuzz/seeds/msh.
+// libFuzzer harness: the gmsh MSH reader (2.2 and 4.1 ASCII and binary, 4.0
+// ASCII) on arbitrary bytes. It must return a consistent grid or throw
+// IoError; anything else (another exception, a crash, a sanitizer report, a
+// broken invariant) is a finding. Seeds: tests/fuzz/seeds/msh.
 
 #include <cstddef>
 #include <cstdint>

@@ -1,13 +1,16 @@
 #!/usr/bin/env python3
 """Writes the fuzz seed files next to this script (seeds/vtk, seeds/vtu,
-seeds/validate): one small mixed mesh (a tetrahedron, a hexahedron and a
+seeds/msh, seeds/validate): one small mixed mesh (a tetrahedron, a hexahedron and a
 wedge) in every dialect the readers support, so the fuzzer starts inside each
 decoding path (legacy ASCII/BINARY old and 5.1 layouts; VTU ascii, inline
 base64, appended raw/base64, zlib, 32/64-bit headers, both byte orders), and
 a few decoded meshes for the validate harness; and legacy 4.2 and 5.1 files
 with a polyhedron too (the hexahedron's cube again as a face stream, VTK
-9.1's layout), so the fuzzer starts inside the polyhedra split. The outputs are committed;
-run again after editing.
+9.1's layout), so the fuzzer starts inside the polyhedra split; gmsh MSH
+2.2 and 4.1 binary files (4.1 in both byte orders) and a 4.0 ASCII one with
+node and element data (seeds/msh/mixed22.msh and mixed41.msh, the ASCII
+seeds, are written by hand). The outputs are committed; run again after
+editing.
 """
 import base64
 import os
@@ -129,6 +132,65 @@ for compress in [False, True]:
     put("vtu", "appended_raw%s.vtu" % z, vtu("appended", compress=compress))
     put("vtu", "appended_raw_u64%s.vtu" % z, vtu("appended", u64=True, compress=compress))
     put("vtu", "appended_base64%s.vtu" % z, vtu("appended", appended_b64=True, compress=compress))
+
+
+# --- gmsh MSH -----------------------------------------------------------------
+# The mesh's tetrahedron, hexahedron and wedge as gmsh elements (tags from 1;
+# a gmsh prism's triangles run the other way round), a boundary triangle, a
+# node view and an element view.
+MSH_TYPES = {10: 4, 12: 5, 13: 6}
+MSH_ELEMENTS = [(MSH_TYPES[t], [i + 1 for i in (ids if t != 13 else [ids[k] for k in (0, 2, 1, 3, 5, 4)])])
+                for t, ids in CELLS] + [(2, [1, 2, 3])]
+
+
+def msh_data(section, name, records, binary, end):
+    o = ('$%s\n1\n"%s"\n1\n0.0\n3\n0\n1\n%d\n' % (section, name, len(records))).encode()
+    for tag, value in records:
+        o += struct.pack(end + "id", tag, value) if binary else b"%d %r\n" % (tag, value)
+    return o + (b"\n" if binary else b"") + b"$End%s\n" % section.encode()
+
+
+def msh(version, binary, big=False):
+    end = ">" if big else "<"
+    o = b"$MeshFormat\n%s %d 8\n" % (version.encode(), binary)
+    if binary:
+        o += struct.pack(end + "i", 1) + b"\n"
+    o += b"$EndMeshFormat\n"
+    pts = [XYZ[3 * i:3 * i + 3] for i in range(12)]
+    if version == "2.2":
+        o += b"$Nodes\n12\n"
+        for i, p in enumerate(pts):
+            o += struct.pack(end + "i3d", i + 1, *p) if binary else b"%d %r %r %r\n" % (i + 1, *p)
+        o += (b"\n" if binary else b"") + b"$EndNodes\n$Elements\n%d\n" % len(MSH_ELEMENTS)
+        for n, (t, ids) in enumerate(MSH_ELEMENTS):
+            if binary:
+                o += struct.pack(end + "3i", t, 1, 2) + struct.pack(end + "%di" % (3 + len(ids)), n + 1, 1, 1, *ids)
+            else:
+                o += b"%d %d 2 1 1 %s\n" % (n + 1, t, b" ".join(b"%d" % i for i in ids))
+        o += (b"\n" if binary else b"") + b"$EndElements\n"
+    elif binary:  # 4.1: one node block, one element block per element
+        o += b"$Entities\n" + struct.pack(end + "4Q", 0, 0, 0, 1) + struct.pack(end + "i6dQQ", 1, 0, 0, 0, 3, 1, 1, 0, 0)
+        o += b"\n$EndEntities\n$Nodes\n" + struct.pack(end + "4Q", 1, 12, 1, 12) + struct.pack(end + "3iQ", 3, 1, 0, 12)
+        o += struct.pack(end + "12Q", *range(1, 13)) + struct.pack(end + "36d", *XYZ) + b"\n$EndNodes\n$Elements\n"
+        o += struct.pack(end + "4Q", len(MSH_ELEMENTS), len(MSH_ELEMENTS), 1, len(MSH_ELEMENTS))
+        for n, (t, ids) in enumerate(MSH_ELEMENTS):
+            o += struct.pack(end + "3iQ", 3 if t != 2 else 2, 1, t, 1) + struct.pack(end + "%dQ" % (1 + len(ids)), n + 1, *ids)
+        o += b"\n$EndElements\n"
+    else:  # 4.0 ASCII: entity before dimension, a node's tag and coordinates on one line
+        o += b"$Nodes\n1 12\n1 3 0 12\n" + b"".join(b"%d %r %r %r\n" % (i + 1, *p) for i, p in enumerate(pts))
+        o += b"$EndNodes\n$Elements\n%d %d\n" % (len(MSH_ELEMENTS), len(MSH_ELEMENTS))
+        for n, (t, ids) in enumerate(MSH_ELEMENTS):
+            o += b"1 %d %d 1\n%d %s\n" % (3 if t != 2 else 2, t, n + 1, b" ".join(b"%d" % i for i in ids))
+        o += b"$EndElements\n"
+    o += msh_data("NodeData", "temperature", [(i + 1, v) for i, v in enumerate(TEMP)], binary, end)
+    o += msh_data("ElementData", "pressure", [(i + 1, v) for i, v in enumerate(PRESSURE)], binary, end)
+    return o
+
+
+put("msh", "binary22.msh", msh("2.2", 1))
+put("msh", "binary41.msh", msh("4.1", 1))
+put("msh", "binary41_big.msh", msh("4.1", 1, big=True))
+put("msh", "ascii40.msh", msh("4", 0))
 
 
 # --- validate harness (see fuzz_validate.cpp for the byte layout) --------------

@@ -15,8 +15,8 @@ namespace cellray {
 
 /// Reads a mesh file: ".vtk" (legacy VTK), ".vtu" (VTK XML), ".pvtu"
 /// (ParaView's parallel VTK XML: every piece, merged; see read_pvtu()) or
-/// ".msh" (gmsh, MSH 2.2 and 4.1 ASCII; see read_gmsh()), extension
-/// case-insensitive. See UnstructuredGrid for what is kept and
+/// ".msh" (gmsh, MSH 2.2, 4.0 and 4.1, ASCII or binary; see read_gmsh()),
+/// extension case-insensitive. See UnstructuredGrid for what is kept and
 /// ReadOptions for unsupported cells. Thread-safe (no shared state).
 /// @throws IoError naming the file and the line or byte offset of the
 ///         problem, or naming the extension when it is neither.
