@@ -455,8 +455,9 @@ struct Loaded {
   std::vector<ScalarArray> const& arrays() const { return tets.empty() ? hexes.arrays() : tets.arrays(); }
   uint64_t cells() const { return tets.cell_count() + hexes.cell_count(); }
   uint64_t vertices() const { return tets.empty() ? hexes.vertex_count() : tets.vertex_count(); }
+  uint64_t tets_as_hexes = 0;  // tets folded into the hexahedra (load_file)
   std::string cell_type() const {
-    return tets.empty() ? "hex" : hexes.empty() ? "tet" : "mixed";
+    return tets_as_hexes || (!tets.empty() && !hexes.empty()) ? "mixed" : tets.empty() ? "hex" : "tet";
   }
 };
 
@@ -565,6 +566,13 @@ void load(Options const& o, Loaded& l) {
   if (g.empty())
     throw InvalidMesh(l.name + " holds no tetrahedra or hexahedra" +
                       (g.report.skipped_count() ? " (all cells were skipped as unsupported)" : ""));
+  // A mixed mesh whose tets are not the most of it (a snappyHexMesh or
+  // boundary-layer mesh: hexes, wedges, and the polyhedra's pyramids and
+  // tets) becomes one part: its tets as collapsed hexahedra, one BVH, and
+  // DVR marches across all its cells. The flange (188k hex-family cells,
+  // 35k tets), 1 thread, 1024x768: iso 1.1x, DVR 1.06x, DVR with --march
+  // 1.36x the two parts' speed; the same iso image, bit for bit.
+  if (!g.tets.empty() && g.tet_count() <= g.hex_count()) l.tets_as_hexes = g.fold_tets_into_hexes();
   l.tets = g.tet_mesh();
   l.hexes = g.hex_mesh();
 }
@@ -1191,6 +1199,7 @@ int run(Options const& o) {
     j["cells"] = l.cells();
     j["vertices"] = l.vertices();
     j["cell_type"] = l.cell_type();
+    j["tets_as_hexes"] = l.tets_as_hexes;
     if (l.grid) {  // the file's cells by VTK type name, and the polyhedra split (wedges, pyramids: hexahedra)
       nlohmann::ordered_json by_type = nlohmann::ordered_json::object();
       for (auto const& [type, count] : l.grid->report.cells_read) by_type[vtk_cell_type_name(type)] = count;

@@ -14,6 +14,7 @@
 #include <zlib.h>
 
 #include <cellray/io/read_mesh.hpp>
+#include <cellray/mesh/validate.hpp>
 
 // One namespace per file: a stage's files compile as one unity TU
 // (tests/CMakeLists.txt), where file-local names must not meet.
@@ -473,6 +474,49 @@ TEST_CASE("read_mesh dispatches on the extension and names an unknown one", "[io
   CHECK_THROWS_WITH(read_mesh_from_memory("", "mesh.MSH"), Catch::Contains("mesh.MSH: empty file"));  // gmsh's reader
   CHECK_THROWS_WITH(read_mesh("/nonexistent/file.vtk"), Catch::Contains("/nonexistent/file.vtk") && Catch::Contains("cannot open"));
   CHECK_THROWS_AS(read_mesh("no_extension"), IoError);
+}
+
+TEST_CASE("cell_to_point counts a cell once at a vertex it lists twice (wedges, pyramids, folded tets)", "[io]") {
+  // A pyramid (q = 10) and a tet (q = 20) sharing the apex 4: VTK averages
+  // each cell once per point, 15 at the apex, although the pyramid is
+  // stored as a hexahedron listing its apex four times.
+  std::string const f =
+      "# vtk DataFile Version 2.0\nc2p\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 7 float\n"
+      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0.5 0.5 1\n2 0 1\n2 1 1\n"
+      "CELLS 2 11\n5 0 1 2 3 4\n4 1 2 4 5\nCELL_TYPES 2\n14\n10\nCELL_DATA 2\nSCALARS q float\nLOOKUP_TABLE default\n10 20\n";
+  UnstructuredGrid g = read_vtk_legacy_from_memory(f, "c2p.vtk");
+  REQUIRE(g.hex_count() == 1);
+  g.cell_to_point("q", "avg");
+  CHECK(g.point_array("avg")->values[4] == 15.f);
+  CHECK(g.point_array("avg")->values[0] == 10.f);
+  CHECK(g.point_array("avg")->values[1] == 15.f);
+  CHECK(g.point_array("avg")->values[5] == 20.f);
+  // Folded into the hexahedra, the tet still counts once at each vertex.
+  UnstructuredGrid h = read_vtk_legacy_from_memory(f, "c2p.vtk");
+  CHECK(h.fold_tets_into_hexes() == 1);
+  h.cell_to_point("q", "avg");
+  for (size_t v = 0; v < 6; ++v) CHECK(h.point_array("avg")->values[v] == g.point_array("avg")->values[v]);
+  CHECK(std::isnan(h.point_array("avg")->values[6]));  // no cell uses it
+}
+
+TEST_CASE("fold_tets_into_hexes stores each tet as a collapsed hexahedron, cell values along", "[io]") {
+  std::string const f =
+      "# vtk DataFile Version 2.0\nfold\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 9 float\n"
+      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n0.5 0.5 2\n"
+      "CELLS 3 19\n4 4 5 6 8\n8 0 1 2 3 4 5 6 7\n4 4 6 7 8\nCELL_TYPES 3\n10\n12\n10\n"
+      "CELL_DATA 3\nSCALARS q float\nLOOKUP_TABLE default\n1 2 3\n";
+  UnstructuredGrid g = read_vtk_legacy_from_memory(f, "fold.vtk");
+  CHECK(g.fold_tets_into_hexes() == 2);
+  CHECK(g.tet_count() == 0);
+  REQUIRE(g.hex_count() == 3);
+  CHECK(std::vector<uint32_t>(g.hexes.begin() + 8, g.hexes.end()) ==
+        std::vector<uint32_t>{4, 5, 6, 6, 8, 8, 8, 8, 4, 6, 7, 7, 8, 8, 8, 8});
+  CHECK(g.cell_array("q")->hex_values == std::vector<float>{2, 1, 3});
+  CHECK(g.cell_array("q")->tet_values.empty());
+  ValidationReport const r = validate(g.hex_mesh());  // positive, not flat
+  CHECK(!r.inverted);
+  CHECK(!r.zero_volume);
+  CHECK(g.fold_tets_into_hexes() == 0);
 }
 
 TEST_CASE("cell_to_point averages the cells around each vertex", "[io]") {

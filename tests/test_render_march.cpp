@@ -161,6 +161,70 @@ TEST_CASE("DVR march: hexes, wedges and pyramids, shading, early termination, Na
   CHECK_THROWS_WITH(render_dvr(s, camera_for(s, 8, 8), p), Catch::Contains("face neighbours") && Catch::Contains("hexahedral part 0"));
 }
 
+TEST_CASE("a mixed mesh with its tets folded into the hexahedra renders as its two parts do, and marches",
+          "[render][dvr][isa]") {
+  // gmsh's hex block glued to a tet block (pyramids between them), with a
+  // curved field; the tets as collapsed hexahedra (fold_tets_into_hexes).
+  UnstructuredGrid g = read_mesh(std::string(CELLRAY_TEST_DATA) + "/gmsh/mixed22.msh");
+  REQUIRE(g.tet_count() > 0);
+  REQUIRE(g.hex_count() > 0);
+  std::vector<float> field(g.vertex_count());
+  for (uint64_t v = 0; v < g.vertex_count(); ++v) {
+    float const* q = &g.xyz[3 * v];
+    field[v] = std::sin(3.f * q[0]) + q[1] * q[1] + 0.5f * q[2];
+  }
+  UnstructuredGrid f = g;
+  uint64_t const tets = f.fold_tets_into_hexes();
+  CHECK(tets == g.tet_count());
+  TetMesh const tm = g.tet_mesh().with_values(view(field));
+  HexMesh const hm = g.hex_mesh().with_values(view(field));
+  HexMesh const fm = f.hex_mesh().with_values(view(field));
+  MinMaxBvh const tb = build_minmax_bvh(tm), hb = build_minmax_bvh(hm), fb = build_minmax_bvh(fm);
+  HexNeighbours const nb = build_hex_neighbours(fm);
+  Scene two;
+  two.tets.push_back({tm, &tb});
+  two.hexes.push_back({hm, &hb});
+  Scene const one(fm, fb), one_march(fm, fb, nullptr, &nb);
+  Camera const cam = camera_for(two, 64, 64);
+  RenderOptions const o = test::isa_options();
+  float const lo = *std::min_element(field.begin(), field.end()), hi = *std::max_element(field.begin(), field.end());
+  // Iso: the same crossings (a tet's faces are triangles in both kernels)
+  // and the same linear field inside: the same image but for the roots'
+  // last bits.
+  IsoParams ip;
+  for (float k : {0.3f, 0.6f}) ip.surfaces.push_back({lo + k * (hi - lo), glm::vec3(0.8f), 1.f});
+  ImageDiff const iso = compare_images(render_iso(one, cam, ip, o), render_iso(two, cam, ip, o), 1.0);
+  report("mixed22 iso: folded vs two parts", iso);
+  CHECK(iso.nonfinite == 0);
+  CHECK(iso.frac_over < 0.001);
+  CHECK(iso.rmse < 0.05);
+  // DVR: one part marches from tet to pyramid to hex and back.
+  DvrParams const p = segments(busy_tf(lo, hi, diagonal(two) / 6.f), diagonal(two) / 250.f);
+  Image const d_two = render_dvr(two, cam, p, o);
+  for (Scene const* s : {&one, &one_march}) {
+    ImageDiff const d = compare_images(render_dvr(*s, cam, p, o), d_two, 0.5);
+    report(s == &one ? "mixed22 DVR: folded vs two parts" : "mixed22 DVR: folded, marching vs two parts", d);
+    CHECK(d.nonfinite == 0);
+    CHECK(d.rmse < 0.01);
+    CHECK(d.max < 0.5);
+  }
+  // Probes: the folded tets give the tets' values.
+  std::vector<float> pts;
+  glm::vec3 blo, bhi;
+  two.bounds(blo, bhi);
+  for (int i = 0; i < 4000; ++i)
+    for (int a = 0; a < 3; ++a) pts.push_back(blo[a] + (bhi[a] - blo[a]) * float((i * 7919 + a * 104729) % 1000) / 1000.f);
+  std::vector<float> const a = sample_points(two, pts, o), b = sample_points(one, pts, o);
+  uint64_t inside = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    CHECK(std::isnan(a[i]) == std::isnan(b[i]));
+    if (std::isnan(a[i])) continue;
+    ++inside;
+    CHECK(b[i] == Approx(a[i]).margin(1e-5f * (hi - lo)));
+  }
+  CHECK(inside > 1000);
+}
+
 TEST_CASE("DVR march: boxturb48 hexes, a narrow band of enstrophy", "[render][dvr][isa][data]") {
   auto const path = test::shared_data_file("openfoam/boxturb48_dns.vtk");
   if (!path) return;

@@ -3,6 +3,7 @@
 // TetMesh / HexMesh views point at, plus a report of what was read, reduced,
 // skipped or ignored.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -16,6 +17,7 @@
 #include "../error.hpp"
 #include "../mesh/cell_mesh.hpp"
 #include "../mesh/span.hpp"
+#include "../mesh/vtk_cells.hpp"
 
 namespace cellray {
 
@@ -234,14 +236,18 @@ struct UnstructuredGrid {
     // Double sums: 10^5 float terms around a vertex would lose digits in float.
     std::vector<double> sum(nv, 0.0);
     std::vector<uint32_t> count(nv, 0);
+    // A cell counts once at each of its vertices, however often it lists
+    // one (a wedge, pyramid or tet stored as a hexahedron), as VTK counts it.
     auto accumulate = [&](std::vector<uint32_t> const& ids, int corners, std::vector<float> const& vals) {
       uint64_t const cells = ids.size() / uint64_t(corners);
-      for (uint64_t i = 0; i < cells; ++i)
+      for (uint64_t i = 0; i < cells; ++i) {
+        uint32_t const* c = ids.data() + i * uint64_t(corners);
         for (int k = 0; k < corners; ++k) {
-          uint32_t const v = ids[i * uint64_t(corners) + uint64_t(k)];
-          sum[v] += double(vals[i]);
-          ++count[v];
+          if (std::find(c, c + k, c[k]) != c + k) continue;
+          sum[c[k]] += double(vals[i]);
+          ++count[c[k]];
         }
+      }
     };
     accumulate(tets, 4, c->tet_values);
     accumulate(hexes, 8, c->hex_values);
@@ -253,6 +259,28 @@ struct UnstructuredGrid {
       p.values[v] = count[v] ? float(sum[v] / double(count[v])) : std::numeric_limits<float>::quiet_NaN();
     report.arrays_read.push_back("point '" + p.name + "' (averaged from cell array '" + c->name + "')");
     point_arrays.push_back(std::move(p));
+  }
+
+  /// Stores every tetrahedron as a collapsed hexahedron (mesh/
+  /// vtk_cells.hpp's tet_as_hex), after the hexahedra, with its cell-array
+  /// values: a mixed mesh becomes one part, under one BVH, through whose
+  /// face neighbours DVR can march across all its cell types. The field and
+  /// the crossings are the tet's; the price is 16 more index bytes per tet
+  /// and the hexahedron kernels' cost for it. Returns how many were folded.
+  /// Views made before dangle.
+  uint64_t fold_tets_into_hexes() {
+    uint64_t const n = tet_count();
+    hexes.reserve(hexes.size() + 8 * n);
+    for (uint64_t c = 0; c < n; ++c)
+      for (int k : tet_as_hex) hexes.push_back(tets[4 * c + uint64_t(k)]);
+    for (CellArray& a : cell_arrays) {
+      a.hex_values.insert(a.hex_values.end(), a.tet_values.begin(), a.tet_values.end());
+      a.tet_values.clear();
+      a.tet_values.shrink_to_fit();
+    }
+    tets.clear();
+    tets.shrink_to_fit();
+    return n;
   }
 
  private:

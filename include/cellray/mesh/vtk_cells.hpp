@@ -51,6 +51,13 @@ enum VtkCellType : int { vtk_tetra = 10, vtk_voxel = 11, vtk_hexahedron = 12, vt
 /// quad (VTK: its normal points away from the top), hence 0 2 1.
 inline constexpr std::array<int, 8> wedge_as_hex{0, 2, 1, 1, 3, 5, 4, 4};
 inline constexpr std::array<int, 8> pyramid_as_hex{0, 1, 2, 3, 4, 4, 4, 4};
+/// A tetrahedron's (VTK order 0-3) as a hexahedron: triangle 0 1 2 at the
+/// bottom, the top collapsed onto 3. Its trilinear map interpolates
+/// linearly, as the tet does (the weights of a point are its barycentric
+/// coordinates), and its four faces are triangles that the hexahedron
+/// kernels cross as the tet kernel does, bit for bit (cells/hex.hpp):
+/// UnstructuredGrid::fold_tets_into_hexes puts a mixed mesh under one BVH.
+inline constexpr std::array<int, 8> tet_as_hex{0, 1, 2, 2, 3, 3, 3, 3};
 /// A voxel's corners are a pixel grid's: 0 1 3 2 / 4 5 7 6 as a hexahedron.
 inline constexpr std::array<int, 8> voxel_as_hex{0, 1, 3, 2, 4, 5, 7, 6};
 
