@@ -1199,7 +1199,7 @@ int run(Options const& o) {
     j["cells"] = l.cells();
     j["vertices"] = l.vertices();
     j["cell_type"] = l.cell_type();
-    j["tets_as_hexes"] = l.tets_as_hexes;
+    if (l.tets_as_hexes) j["tets_as_hexes"] = l.tets_as_hexes;  // a mixed mesh folded into one part
     if (l.grid) {  // the file's cells by VTK type name, and the polyhedra split (wedges, pyramids: hexahedra)
       nlohmann::ordered_json by_type = nlohmann::ordered_json::object();
       for (auto const& [type, count] : l.grid->report.cells_read) by_type[vtk_cell_type_name(type)] = count;
