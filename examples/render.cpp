@@ -379,7 +379,7 @@ void add_options(CLI::App& app, Options& o) {
                "DVR segments of tets: clip the cells of the BVH leaves each packet reaches instead of marching from "
                "cell to cell through face neighbours (the same image; for comparisons)");
   app.add_flag("--march", o.march,
-               "DVR segments of hexahedra (wedges and pyramids included) march through face neighbours too (24 "
+               "DVR segments of hexahedra (wedges, pyramids and a mixed mesh's folded tets included) march through face neighbours too (24 "
                "bytes per cell; the same image; pays on meshes with more cells than the image has pixels)")
       ->excludes("--no-march");
   app.add_flag("--dvr-shading", o.dvr_shading,

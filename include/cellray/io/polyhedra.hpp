@@ -65,6 +65,26 @@ template <class F> void for_poly_chunks(uint64_t npoly, F const& f) {
   else tbb::parallel_for(all, f);
 }
 
+/// A file's tetrahedra, hexahedra (voxels included) and polyhedra by their
+/// VTK types, for reserving storage before the split.
+struct FileCellCounts {
+  uint64_t tets = 0, hexes = 0, polyhedra = 0;
+};
+inline FileCellCounts count_file_cells(NumArray const& types) {
+  FileCellCounts n;
+  with_ints(types, [&](auto const type_of) {
+    for (uint64_t c = 0; c < types.count; ++c) {
+      uint64_t nodes;
+      bool exact;
+      CellKind const k = classify_cell(type_of(c), nodes, exact);
+      n.tets += k == CellKind::tet;
+      n.hexes += k == CellKind::hex || k == CellKind::voxel;
+      n.polyhedra += k == CellKind::polyhedron;
+    }
+  });
+  return n;
+}
+
 /// Fills `p.tet_at` / `p.hex_at` from `p.polys`, in parallel: bounds on
 /// each polyhedron's cells from its face sizes alone (split_face makes a
 /// tet of a triangle, a pyramid of a quad, and of an n-gon at most n - 2

@@ -528,19 +528,8 @@ class LegacyParser {
   /// grid's storage for the file's cells and theirs. The ranges were
   /// checked by cells() (check_offsets, classic_starts).
   void plan_polyhedra(UnstructuredGrid& grid, PolyPlan& poly) {
-    uint64_t file_tets = 0, file_hexes = 0;
-    bool any = false;
-    with_ints(types_.data, [&](auto const type_of) {
-      for (uint64_t c = 0; c < ncells_; ++c) {
-        uint64_t nodes;
-        bool exact;
-        CellKind const k = classify_cell(type_of(c), nodes, exact);
-        file_tets += k == CellKind::tet;
-        file_hexes += k == CellKind::hex || k == CellKind::voxel;
-        any |= k == CellKind::polyhedron;
-      }
-    });
-    if (!any) return;
+    FileCellCounts const file = count_file_cells(types_.data);
+    if (!file.polyhedra) return;
     NumArray const& t = types_.data;
     if (new_layout_) {
       NumArray const& o = offsets_.data;
@@ -555,8 +544,8 @@ class LegacyParser {
         }
     }
     count_polyhedron_cells(cells_.data, poly);
-    grid.tets.reserve(4 * (file_tets + poly.new_tets()));
-    grid.hexes.reserve(8 * (file_hexes + poly.new_hexes()));
+    grid.tets.reserve(4 * (file.tets + poly.new_tets()));
+    grid.hexes.reserve(8 * (file.hexes + poly.new_hexes()));
     grid.xyz.reserve(3 * (npoints_ + poly.polys.size()));
   }
 

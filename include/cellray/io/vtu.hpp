@@ -396,18 +396,8 @@ class VtuParser {
     NumArray const conn = decode(conn_el, uint64_t(prev), "connectivity");
     NumArray const types = decode(type_el, nc, "types");
     pugi::xml_node const faces_el = optional_named(cells, "faces"), face_offsets_el = optional_named(cells, "faceoffsets");
-    uint64_t file_tets = 0, file_hexes = 0, npoly = 0;  // upper bounds, for reserving storage
-    with_ints(types, [&](auto const type_of) {
-      for (uint64_t c = 0; c < nc; ++c) {
-        uint64_t nodes;
-        bool exact;
-        CellKind const k = classify_cell(type_of(c), nodes, exact);
-        file_tets += k == CellKind::tet;
-        file_hexes += k == CellKind::hex || k == CellKind::voxel;
-        npoly += k == CellKind::polyhedron;
-      }
-    });
-    if (npoly) {
+    FileCellCounts const file = count_file_cells(types);  // upper bounds, for reserving storage
+    if (file.polyhedra) {
       plan_faces_el_ = faces_el;
       plan_face_offsets_el_ = face_offsets_el;
       try {
@@ -417,8 +407,8 @@ class VtuParser {
       }
       if (!plan_.failed) {
         PolyPlan const& pp = plan_.plan;
-        grid.tets.reserve(4 * (file_tets + pp.new_tets()));
-        grid.hexes.reserve(8 * (file_hexes + pp.new_hexes()));
+        grid.tets.reserve(4 * (file.tets + pp.new_tets()));
+        grid.hexes.reserve(8 * (file.hexes + pp.new_hexes()));
         grid.xyz.reserve(3 * (np + pp.polys.size()));
         poly_spare_ = Spare{pp.polys.size(), pp.new_tets(), pp.new_hexes()};
       }
