@@ -1,9 +1,15 @@
 #pragma once
 // Exodus II (".ex2", ".exo", ".e": Sandia's finite-element format, netCDF
 // inside) for cellray-render, through the Exodus library itself (Debian
-// libexodusii-dev; examples/CMakeLists.txt builds this in when it is found).
-// The library stays out of cellray's own headers: hosts that read Exodus
-// have their own reader and hand cellray the arrays.
+// libexodusii-dev). The library stays out of cellray's own headers: hosts
+// that read Exodus have their own reader and hand cellray the arrays.
+//
+// read_exodus is compiled into a module of its own, libcellray-exodus.so
+// (examples/exodus_module.cpp; built when the library is found), which
+// cellray-render loads beside itself for an Exodus file only: Debian's
+// Exodus library pulls in netCDF, HDF5, OpenMPI, curl and ~50 shared
+// libraries whose loading and relocation cost every run of cellray-render
+// ~40 ms before main (measured on the team's VMs), whatever file it reads.
 //
 // Kept: every element block of volume elements (TETRA*, HEX*, WEDGE*,
 // PYRAMID*, higher-order ones as their corner cells; the corner order is
@@ -25,6 +31,9 @@
 
 #ifdef CELLRAY_WITH_EXODUS
 #include <exodusII.h>
+#else
+#include <dlfcn.h>
+#include <unistd.h>
 #endif
 
 namespace cellray::cli {
@@ -174,5 +183,48 @@ inline UnstructuredGrid read_exodus(std::string const& path, ReadOptions const& 
   return grid;
 }
 #endif  // CELLRAY_WITH_EXODUS
+
+/// The module's entry (examples/exodus_module.cpp): reads `path` into
+/// `out`, or returns false with the reader's message in `error`.
+using ReadExodusEntry = bool (*)(char const* path, ReadOptions const* opts, UnstructuredGrid* out, std::string* error);
+inline constexpr char const* exodus_module_file = "libcellray-exodus.so";
+inline constexpr char const* exodus_module_entry = "cellray_read_exodus";
+
+#ifndef CELLRAY_WITH_EXODUS
+/// Reads an Exodus II file through libcellray-exodus.so, the module in the
+/// directory of the running executable, loaded on the first call.
+/// @throws IoError naming the file, or the module when it cannot be loaded.
+inline UnstructuredGrid read_exodus_through_module(std::string const& path, ReadOptions const& opts = {}) {
+  static ReadExodusEntry entry = nullptr;
+  static std::string load_error;
+  static bool const loaded = [] {
+    std::string dir = ".";
+    std::vector<char> exe(4096, '\0');
+    ssize_t const n = ::readlink("/proc/self/exe", exe.data(), exe.size() - 1);
+    if (n > 0) {
+      std::string const self(exe.data(), size_t(n));
+      dir = self.substr(0, self.find_last_of('/'));
+    }
+    std::string const module = dir + "/" + exodus_module_file;
+    void* handle = ::dlopen(module.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (!handle) {
+      char const* why = ::dlerror();
+      load_error = "cellray-render reads Exodus II through " + module + ", which could not be loaded (" +
+                   (why ? why : "unknown reason") +
+                   "); it is built beside cellray-render when the Exodus II library is found (Debian libexodusii-dev; "
+                   "scripts/install-deps.sh installs it)";
+      return false;
+    }
+    entry = reinterpret_cast<ReadExodusEntry>(::dlsym(handle, exodus_module_entry));
+    if (!entry) load_error = module + " has no " + exodus_module_entry + " (a module from another build?)";
+    return entry != nullptr;
+  }();
+  if (!loaded) throw IoError(path + ": " + load_error);
+  UnstructuredGrid grid;
+  std::string error;
+  if (!entry(path.c_str(), &opts, &grid, &error)) throw IoError(error);
+  return grid;
+}
+#endif
 
 }  // namespace cellray::cli

@@ -534,12 +534,7 @@ void load(Options const& o, Loaded& l) {
   ro.skip_unsupported_cells = o.skip_unsupported;
   try {
     if (cli::is_exodus_path(o.mesh_path)) {
-#ifdef CELLRAY_WITH_EXODUS
-      l.grid = cli::read_exodus(o.mesh_path, ro);
-#else
-      throw IoError(o.mesh_path + ": cellray-render was built without the Exodus II library (Debian libexodusii-dev; "
-                    "scripts/install-deps.sh installs it)");
-#endif
+      l.grid = cli::read_exodus_through_module(o.mesh_path, ro);
     } else {
       l.grid = read_mesh(o.mesh_path, ro);
     }
