@@ -240,6 +240,67 @@ TEST_CASE("point location: a zero-volume cell holds nothing and hides nothing", 
   }
 }
 
+TEST_CASE("point location in wedges and pyramids: next to a pyramid's apex and a wedge's collapsed edge",
+          "[traverse][isa][probe]") {
+  // Wedges and pyramids are hexahedra with corners repeated, so their
+  // trilinear map is singular where corners meet (a pyramid's apex, w = 1; a
+  // wedge's collapsed side, v = 1), and Newton's inversion has the least to
+  // go on there. Points are made by the map itself at parametric
+  // coordinates up to 1e-4 from the singular side (and at random), so the
+  // cell and the value they must give are known without inverting anything.
+  // Bent and twisted as twisted_hexes is: curved faces, non-affine cells.
+  auto check = [](GeneratedMesh<8> g, bool pyramids, uint64_t seed) {
+    for (size_t v = 0; v < g.xyz.size(); v += 3) {
+      float const x = g.xyz[v], y = g.xyz[v + 1], z = g.xyz[v + 2];
+      float const a = 0.35f * (z + 1.f);
+      g.xyz[v] = std::cos(a) * x - std::sin(a) * y + 0.15f * std::sin(2.f * y);
+      g.xyz[v + 1] = std::sin(a) * x + std::cos(a) * y;
+    }
+    HexMesh const mesh = g.mesh();
+    test::Rng rng(seed);
+    std::vector<float> xyz;
+    std::vector<double> want;
+    std::vector<int> made_at;  // index into near[]
+    static constexpr double near[] = {0.5, 0.9, 0.99, 0.999, 0.9999};
+    for (uint64_t c = 0; c < mesh.cell_count(); c += 3) {
+      ref::Cell<8> const cell = ref::load(mesh, c);
+      for (int k = 0; k < 5; ++k) {
+        glm::dvec3 u(rng.uniform(0.02, 0.98), rng.uniform(0.02, 0.98), rng.uniform(0.02, 0.98));
+        (pyramids ? u.z : u.y) = near[k];
+        made_at.push_back(k);
+        glm::dvec3 const p = ref::position(cell, u);
+        xyz.insert(xyz.end(), {float(p.x), float(p.y), float(p.z)});
+        want.push_back(ref::value(cell, u));
+      }
+    }
+    MinMaxBvh const bvh = build_minmax_bvh(mesh);
+    Scene const scene(mesh, bvh);
+    std::vector<float> const got = sample_points(scene, xyz, test::isa_options());
+    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+    for (float v : g.field) lo = std::min(lo, v), hi = std::max(hi, v);
+    int lost = 0, wrong = 0;
+    int lost_at[5] = {0, 0, 0, 0, 0};
+    for (size_t i = 0; i < want.size(); ++i) {
+      if (got[i] != got[i]) {
+        ++lost;
+        ++lost_at[made_at[i]];
+      } else if (std::abs(double(got[i]) - want[i]) > 2e-5 * (double(hi) - lo)) {
+        ++wrong;
+        UNSCOPED_INFO("value " << got[i] << " at (" << xyz[3 * i] << ", " << xyz[3 * i + 1] << ", " << xyz[3 * i + 2]
+                               << "), made as " << want[i]);
+      }
+    }
+    INFO(want.size() << " points: lost " << lost << " (at 0.5, 0.9, 0.99, 0.999, 0.9999 of the way to the collapsed side: "
+                     << lost_at[0] << ", " << lost_at[1] << ", " << lost_at[2] << ", " << lost_at[3] << ", " << lost_at[4]
+                     << "), wrong " << wrong);
+    CHECK(want.size() > 1000);
+    CHECK(lost == 0);
+    CHECK(wrong == 0);
+  };
+  SECTION("pyramids, apex at w = 1") { check(generate_pyramids(6 * 6 * 6 * 6, 14), true, 15); }
+  SECTION("wedges, collapsed side at v = 1") { check(generate_wedges(2 * 7 * 7 * 7, 16), false, 17); }
+}
+
 TEST_CASE("sample_points over a scene: the first part (tets, then hexes) that holds a point gives its value",
           "[traverse][isa][probe]") {
   // Two tet parts overlapping in x in [0, 1] (different fields), and a hex

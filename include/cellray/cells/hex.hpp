@@ -533,6 +533,105 @@ inline Vec3<A> invert_hex(CellCorners<A, 8> const& c, Vec3<A> const& p, Vec3<A> 
 
 template <class A> inline Vec3<A> centre() { return {vfloat<A>(0.5f), vfloat<A>(0.5f), vfloat<A>(0.5f)}; }
 
+/// A wedge as the readers store it (mesh/vtk_cells.hpp's wedge_as_hex:
+/// corners 2 = 3 and 6 = 7, the side v = 1 collapsed to an edge) located in
+/// VTK's own wedge coordinates: barycentric (r, s) in the end triangles
+/// (corners 0 1 2 and 4 5 6) and w between them, x = (1 - w) B(r, s) +
+/// w T(r, s). That map is regular up to the collapsed edge, where the
+/// trilinear one is singular (u = r / (1 - s), v = s: u is lost at s = 1),
+/// so Newton converges there as anywhere. Returns (r, s, w); `converged`
+/// as invert_hex.
+template <class A>
+inline Vec3<A> invert_wedge(CellCorners<A, 8> const& c, Vec3<A> const& p, vmask<A> lanes, int cap, vmask<A>& converged) {
+  vfloat<A> const tol(hex_newton_tol), far(3.f), third(1.f / 3.f), half(0.5f);
+  Vec3<A> const b0 = c.p(0), b1 = c.p(1) - b0, b2 = c.p(2) - b0;
+  Vec3<A> const t0 = c.p(4), t1 = c.p(5) - t0, t2 = c.p(6) - t0;
+  Vec3<A> q{third, third, half};  // (r, s, w)
+  vmask<A> active = lanes;
+  converged = simd::no_lanes<A>();
+  for (int it = 0; it < cap && simd::any(active); ++it) {
+    Vec3<A> const bottom = b0 + q.x * b1 + q.y * b2, top = t0 + q.x * t1 + q.y * t2;
+    vfloat<A> const one_w = vfloat<A>(1.f) - q.z;
+    Vec3<A> const r = bottom + q.z * (top - bottom) - p;
+    Vec3<A> const jr = one_w * b1 + q.z * t1, js = one_w * b2 + q.z * t2, jw = top - bottom;
+    Vec3<A> const csw = cross(js, jw), cwr = cross(jw, jr), crs = cross(jr, js);
+    vfloat<A> const inv = vfloat<A>(1.f) / dot(jr, csw);
+    Vec3<A> const step{dot(r, csw) * inv, dot(r, cwr) * inv, dot(r, crs) * inv};
+    vfloat<A> const size = simd::max(simd::abs(step.x), simd::max(simd::abs(step.y), simd::abs(step.z)));
+    vmask<A> const finite = size < vfloat<A>(std::numeric_limits<float>::infinity());  // false for NaN
+    q = select<A>(active && finite, q - step, q);
+    vmask<A> const done = active && finite && size < tol;
+    converged = converged || done;
+    vfloat<A> const dist = simd::max(simd::abs(q.x - third), simd::max(simd::abs(q.y - third), simd::abs(q.z - half)));
+    active = active && finite && !done && dist < far;
+  }
+  return q;
+}
+
+/// Lanes whose hexahedron has an edge collapsed to a point (two corners of
+/// one edge share a vertex): wedges, pyramids, folded tets and the like.
+template <class A> inline vmask<A> collapsed_edge(CellCorners<A, 8> const& c) {
+  static constexpr int edge[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
+                                      {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+  auto m = c.id[edge[0][0]] == c.id[edge[0][1]];
+  for (int e = 1; e < 12; ++e) m = m || c.id[edge[e][0]] == c.id[edge[e][1]];
+  return simd::to_float_mask(m);
+}
+
+/// invert_hex for hexahedra with a collapsed edge (collapsed_edge). Their
+/// map is singular there, and two things lose points next to it: a
+/// direction the collapse leaves undetermined (u along a wedge's collapsed
+/// side, u and v at a pyramid's apex) takes steps that fling the iterate
+/// past invert_hex's far limit, and the float residual's rounding, divided
+/// by the vanishing Jacobian, keeps the step from ever falling below
+/// hex_newton_tol (tests/test_traverse_probe.cpp: 5-9% of the points within
+/// 1% of the singular side lost). So each step is projected onto [0,1]^3,
+/// where a point inside has its solution (a point outside ends held on the
+/// cube's surface, not converged), and a lane is also converged when
+/// its residual is below 1e-5 of the cell's extent (or the rounding of p's
+/// coordinates): the value there is off by as little.
+template <class A>
+inline Vec3<A> invert_collapsed_hex(CellCorners<A, 8> const& c, Vec3<A> const& p, vmask<A> lanes, int cap,
+                                    vmask<A>& converged) {
+  vfloat<A> const zero(0.f), one(1.f), half(0.5f), tol(hex_newton_tol);
+  auto span = [](vfloat<A> const* v) {
+    vfloat<A> lo = v[0], hi = v[0];
+    for (int k = 1; k < 8; ++k) lo = simd::min(lo, v[k]), hi = simd::max(hi, v[k]);
+    return hi - lo;
+  };
+  auto largest = [](Vec3<A> const& v) { return simd::max(simd::abs(v.x), simd::max(simd::abs(v.y), simd::abs(v.z))); };
+  vfloat<A> const reach =
+      simd::max(vfloat<A>(1e-5f) * simd::max(span(c.x), simd::max(span(c.y), span(c.z))), vfloat<A>(4e-7f) * largest(p));
+  auto unit = [&](vfloat<A> const& x) { return simd::min(one, simd::max(zero, x)); };
+  Vec3<A> u = centre<A>();
+  vmask<A> active = lanes;
+  converged = simd::no_lanes<A>();
+  for (int it = 0; it < cap && simd::any(active); ++it) {
+    Vec3<A> const r = Vec3<A>{trilerp<A>(c.x, u), trilerp<A>(c.y, u), trilerp<A>(c.z, u)} - p;
+    vmask<A> const close = active && largest(r) <= reach;
+    converged = converged || close;
+    active = active && !close;
+    Jacobian<A> const J = hex_jacobian(c, u);
+    Vec3<A> const cvw = cross(J.jv, J.jw), cwu = cross(J.jw, J.ju), cuv = cross(J.ju, J.jv);
+    vfloat<A> const inv = one / dot(J.ju, cvw);
+    Vec3<A> const step{dot(r, cvw) * inv, dot(r, cwu) * inv, dot(r, cuv) * inv};
+    vfloat<A> const size = largest(step);
+    vmask<A> const finite = size < vfloat<A>(std::numeric_limits<float>::infinity());  // false for NaN
+    // On the singular set itself (an apex): halfway back to the centre.
+    Vec3<A> const next = select<A>(finite, Vec3<A>{unit(u.x - step.x), unit(u.y - step.y), unit(u.z - step.z)},
+                                   half * (u + centre<A>()));
+    vfloat<A> const moved = largest(next - u);
+    u = select<A>(active, next, u);
+    vmask<A> const done = active && finite && size < tol;
+    // Held on the cube's surface by a step out of it: the point is outside
+    // (a few iterations, not the cap, for the cells around a probe point).
+    vmask<A> const held = active && finite && moved < tol;
+    converged = converged || done;
+    active = active && !done && !held;
+  }
+  return u;
+}
+
 template <class A> inline vmask<A> in_unit_cube(Vec3<A> const& u, float tol) {
   vfloat<A> const lo(-tol), hi(1.f + tol);
   return u.x >= lo && u.x <= hi && u.y >= lo && u.y <= hi && u.z >= lo && u.z <= hi;
@@ -628,8 +727,12 @@ template <class A> inline HexClip<A> clip_hex(RayBatch<A> const& ray, CellCorner
 /// stops when they are done, not when every lane is (point probes test a
 /// cell for the few points inside its box).
 ///
-/// A tetrahedron stored as a hexahedron (0 1 2 2 3 3 3 3, UnstructuredGrid::
-/// fold_tets_into_hexes) is located by its barycentric coordinates instead:
+/// A wedge as the readers store it is located in its own coordinates
+/// (invert_wedge); another hexahedron with a collapsed edge (a pyramid)
+/// through invert_collapsed_hex (projected onto the cube; converged by the
+/// residual too). A tetrahedron stored as a hexahedron (0 1 2 2 3 3 3 3,
+/// UnstructuredGrid::fold_tets_into_hexes) is located by its barycentric
+/// coordinates:
 /// its map is singular along a whole face and an edge, where Newton stalls
 /// (0.2% of random points in gmsh's mixed test mesh were lost).
 template <class A>
@@ -638,8 +741,30 @@ inline Located<A> locate_hex(PointBatch<A> const& pts, CellCorners<A, 8> const& 
   Located<A> r;
   vmask<A> const tet = lanes && simd::to_float_mask(c.id[2] == c.id[3] && c.id[4] == c.id[5] &&
                                                     c.id[5] == c.id[6] && c.id[6] == c.id[7]);
-  r.param = isa_detail::invert_hex(c, pts.p(), isa_detail::centre<A>(), lanes && !tet, hex_newton_cap, r.converged);
+  vmask<A> const wedge = lanes && !tet && simd::to_float_mask(c.id[2] == c.id[3] && c.id[6] == c.id[7]);
+  vmask<A> const collapsed = lanes && !tet && !wedge && isa_detail::collapsed_edge(c);
+  r.param = isa_detail::invert_hex(c, pts.p(), isa_detail::centre<A>(), lanes && !tet && !wedge && !collapsed,
+                                   hex_newton_cap, r.converged);
+  if (CELLRAY_UNLIKELY(simd::any(collapsed))) {
+    vmask<A> converged;
+    Vec3<A> const u = isa_detail::invert_collapsed_hex(c, pts.p(), collapsed, hex_newton_cap, converged);
+    r.param = select<A>(collapsed, u, r.param);
+    r.converged = (collapsed && converged) || (!collapsed && r.converged);
+  }
   r.inside = r.converged && isa_detail::in_unit_cube<A>(r.param, hex_inside_tolerance);
+  if (CELLRAY_UNLIKELY(simd::any(wedge))) {
+    vmask<A> converged;
+    Vec3<A> const q = isa_detail::invert_wedge(c, pts.p(), wedge, hex_newton_cap, converged);
+    vfloat<A> const zero(0.f), one(1.f), tol(hex_inside_tolerance);
+    vmask<A> const in = converged && q.x >= -tol && q.y >= -tol && q.x + q.y <= one + tol && q.z >= -tol &&
+                        q.z <= one + tol;
+    // Trilinear coordinates: v = s, u = r / (1 - s) (any u on the collapsed edge).
+    vfloat<A> const one_s = one - q.y;
+    vfloat<A> const u = simd::select(one_s > zero, q.x / simd::select(one_s > zero, one_s, one), vfloat<A>(0.5f));
+    r.param = select<A>(wedge, Vec3<A>{simd::min(one, simd::max(zero, u)), q.y, q.z}, r.param);
+    r.converged = (wedge && converged) || (!wedge && r.converged);
+    r.inside = (wedge && in) || (!wedge && r.inside);
+  }
   if (CELLRAY_UNLIKELY(simd::any(tet))) {
     // Barycentric weights l1, l2, l3 of corners 1, 2 and 4 (Cramer), and the
     // trilinear coordinates they are: w = l3, v = l2 / (1 - w),
