@@ -281,6 +281,7 @@ struct Options {
   std::string dvr_mode = "segments";
   bool no_march = false;
   bool march = false;
+  std::string fold_tets = "auto";
   bool dvr_shading = false;
   bool no_skip = false;
   int neubauer = 0;
@@ -382,6 +383,12 @@ void add_options(CLI::App& app, Options& o) {
                "DVR segments of hexahedra (wedges, pyramids and a mixed mesh's folded tets included) march through face neighbours too (24 "
                "bytes per cell; the same image; pays on meshes with more cells than the image has pixels)")
       ->excludes("--no-march");
+  app.add_option("--fold-tets", o.fold_tets,
+                 "A mesh of tets and hexahedra (wedges, pyramids): store its tets as collapsed hexahedra, one part "
+                 "under one BVH (always), keep two parts (never), or fold when the tets are at most a fifth of the cells "
+                 "(auto: folded tets run the hexahedron kernels)")
+      ->check(CLI::IsMember({"auto", "always", "never"}))
+      ->capture_default_str();
   app.add_flag("--dvr-shading", o.dvr_shading,
                "DVR gradient shading: headlight Lambert + Blinn-Phong from the scalar gradient, fading out where the "
                "field is flat");
@@ -561,13 +568,17 @@ void load(Options const& o, Loaded& l) {
   if (g.empty())
     throw InvalidMesh(l.name + " holds no tetrahedra or hexahedra" +
                       (g.report.skipped_count() ? " (all cells were skipped as unsupported)" : ""));
-  // A mixed mesh whose tets are not the most of it (a snappyHexMesh or
-  // boundary-layer mesh: hexes, wedges, and the polyhedra's pyramids and
-  // tets) becomes one part: its tets as collapsed hexahedra, one BVH, and
-  // DVR marches across all its cells. The flange (188k hex-family cells,
-  // 35k tets), 1 thread, 1024x768: iso 1.1x, DVR 1.06x, DVR with --march
-  // 1.36x the two parts' speed; the same iso image, bit for bit.
-  if (!g.tets.empty() && g.tet_count() <= g.hex_count()) l.tets_as_hexes = g.fold_tets_into_hexes();
+  // A mixed mesh with few tets (a snappyHexMesh mesh: hexes, wedges, and
+  // the polyhedra's pyramids and tets) becomes one part: its tets as
+  // collapsed hexahedra, one BVH, and DVR with --march crosses all its
+  // cells. Folded tets run the hexahedron kernels, so only a few pay. One
+  // thread, 1024x768, folded against two parts: the flange (16% tets) iso
+  // 0.96-1.1x, DVR 1.05x, with --march 1.36x the speed; sphere_bl.geo's
+  // boundary-layer meshes (30-82% tets) iso 0.4-0.5x, DVR 0.5-0.75x, with
+  // --march 0.99-1.1x (docs/cli.md).
+  bool const few_tets = 4 * g.tet_count() <= g.hex_count();  // at most a fifth of the cells
+  bool const fold = o.fold_tets == "always" || (o.fold_tets == "auto" && few_tets);
+  if (!g.tets.empty() && !g.hexes.empty() && fold) l.tets_as_hexes = g.fold_tets_into_hexes();
   l.tets = g.tet_mesh();
   l.hexes = g.hex_mesh();
 }

@@ -3,7 +3,8 @@
 // normals (issue #25): at each vertex, the volume-weighted average of the
 // gradients of the cells around it (tets: the cell's constant gradient,
 // weighted by the cell's volume; hexes: the trilinear gradient at that
-// corner, weighted by the corner's share of the volume, |det J| / 8), as
+// corner, weighted by the corner's share of the volume, |det J| / 8; a tet
+// folded into a hexahedron as the tet it is), as
 // VTK's gradient filter averages cell derivatives at a point. The renderer
 // interpolates them inside the hit cell with the cell's own shape functions
 // (GradientMethod::smooth), so normals vary smoothly across cells where the
@@ -95,14 +96,21 @@ template <int N> VertexGradients build_vertex_gradients(CellMesh<N> const& mesh)
       finite = finite && std::isfinite(val[v[k]]);
     }
     if (!finite) continue;  // a NaN or inf corner: the cell is invisible, its gradient too
-    if constexpr (N == 4) {
+    // A tet folded into a hexahedron (0 1 2 2 3 3 3 3: a mixed mesh as one
+    // part) counts as its tet: an edge has collapsed at its corners 2 to 7,
+    // where the trilinear corner gradient is undefined, so its vertices 2
+    // and 3 would get nothing from it (facets in smooth normals).
+    bool tet = N == 4;
+    if constexpr (N == 8) tet = v[2] == v[3] && v[4] == v[5] && v[4] == v[6] && v[4] == v[7];
+    if (tet) {
+      uint64_t const t[4] = {v[0], v[1], v[2], v[N == 4 ? 3 : 4]};
       float acc[3] = {0.f, 0.f, 0.f}, w = 0.f;
-      detail::add_corner_gradient(xyz, val, v[0], v[1], v[2], v[3], 1.0, acc, w);
-      for (int k = 0; k < 4; ++k) {
-        for (int a = 0; a < 3; ++a) g[3 * v[k] + uint64_t(a)] += acc[a];
-        weight[v[k]] += w;
+      detail::add_corner_gradient(xyz, val, t[0], t[1], t[2], t[3], 1.0, acc, w);
+      for (uint64_t vk : t) {
+        for (int a = 0; a < 3; ++a) g[3 * vk + uint64_t(a)] += acc[a];
+        weight[vk] += w;
       }
-    } else {
+    } else if constexpr (N == 8) {
       // Corner k's three edge neighbours (VTK hexahedron).
       static constexpr int nb[8][3] = {{1, 3, 4}, {2, 0, 5}, {3, 1, 6}, {0, 2, 7},
                                        {7, 5, 0}, {4, 6, 1}, {5, 7, 2}, {6, 4, 3}};

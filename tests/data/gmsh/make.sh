@@ -10,6 +10,9 @@
 #              pyramids between them (with points, lines and quads on the
 #              boundary, as gmsh saves them).
 #   layer.geo: a triangulated square extruded into two layers of prisms.
+#   sphere_bl.geo: a sphere in a box, tetrahedra around its boundary layer
+#              (sphere_bl_small.msh, sphere_bl_prisms_small.msh: the CLI
+#              tests of folding).
 #   views.geo: layer.geo with a node view "T" and an element view "q",
 #              saved as views22[_bin].msh and views41[_bin].msh.
 set -euo pipefail
@@ -42,3 +45,10 @@ for version in 22 41; do
     rm "${out}_T.msh" "${out}_q.msh"
   done
 done
+# sphere_bl.geo: tetrahedra around a boundary layer of hexahedra, prisms and
+# pyramids (75% tets; the benchmark sizes are in the .geo), MSH 2.2 binary.
+gmsh sphere_bl.geo -parse_and_exit -setnumber h 0.2 -setnumber hfar 1.0 -setnumber quads 1 -setnumber version 2.2 \
+  -setstring out sphere_bl_small
+# The same with a layer of prisms alone: 46% tets, not folded by default.
+gmsh sphere_bl.geo -parse_and_exit -setnumber h 0.2 -setnumber hfar 1.0 -setnumber quads 0 -setnumber version 2.2 \
+  -setstring out sphere_bl_prisms_small
