@@ -259,7 +259,8 @@ TEST_CASE("hex neighbours: hexes, wedges and pyramids as collapsed hexes, duplic
 // reaches its bucket from any corner slot: hexes, wedges and pyramids
 // (generate_hex_family), hexes cut into six tets folded as 0 1 2 2 3 3 3 3,
 // duplicated cells, pyramids over interior faces (faces of three cells)
-// fanning around vertex 0 (a bucket of over 32 faces: the sorted path), a
+// fanning around vertex 0 (a bucket of over 16 faces: the hashed path; one
+// of them duplicated twice, so faces of three cells meet there too), a
 // triangle over three corners of a quad (no match: quads meet quads), and
 // cells with collapsed faces only.
 TEST_CASE("hex neighbours: a shuffled mix in several blocks, the same on any thread count", "[mesh][neighbours]") {
@@ -286,11 +287,13 @@ TEST_CASE("hex neighbours: a shuffled mix in several blocks, the same on any thr
     if (std::set<uint32_t>(cells[c].begin(), cells[c].begin() + 4).size() == 4 && cells[c][0] > 40 * 40) quads.push_back(c);
   REQUIRE(quads.size() == 40);
   for (uint64_t q : quads) {
-    auto const& b = cells[q];
+    auto const b = cells[q];
     cells.push_back({b[0], b[1], b[2], b[3], 0, 0, 0, 0});  // a third cell on the face
   }
+  auto const fan_pyramid = cells.back();
+  cells.insert(cells.end(), 2, fan_pyramid);  // its sides: triangles of three cells in vertex 0's bucket
   for (uint64_t c : {uint64_t(17), uint64_t(20000), uint64_t(45000)}) cells.push_back(cells[c]);  // duplicated
-  auto const& t = cells[quads[0]];
+  auto const t = cells[quads[0]];
   cells.push_back({t[0], t[1], t[2], t[2], 1, 1, 1, 1});   // a triangle over three corners of a quad
   cells.push_back({t[0], t[1], t[2], t[3], t[0], t[1], t[2], t[3]});  // flat: its bottom and top are one face
   cells.push_back({5, 5, 5, 5, 6, 6, 6, 6});                          // no face with area

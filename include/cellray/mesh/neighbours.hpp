@@ -292,6 +292,10 @@ template <class Id> struct HexFaceKey {
   Id v[3];
   uint32_t slot;  ///< fits: build_hex_neighbours takes under 2^29 cells
   bool same_face(HexFaceKey const& o) const noexcept { return v[0] == o.v[0] && v[1] == o.v[1] && v[2] == o.v[2]; }
+  uint64_t hash() const noexcept {
+    uint64_t const h = (uint64_t(v[0]) * 0x9e3779b97f4a7c15ull ^ uint64_t(v[1])) * 0xff51afd7ed558ccdull;
+    return (h ^ uint64_t(v[2])) * 0xc4ceb9fe1a85ec53ull;
+  }
   bool operator<(HexFaceKey const& o) const noexcept {
     for (int i = 0; i < 3; ++i)
       if (v[i] != o.v[i]) return v[i] < o.v[i];
@@ -345,6 +349,7 @@ template <class Id> struct HexCellFaces {
 /// the smallest of a few faces) and processed in parallel; only the runs
 /// reach the result, so it does not depend on the blocks or thread count.
 template <class Id, class Src> void match_hex_faces(Src const* idx, uint64_t n, uint64_t nv, int32_t* across) {
+  constexpr uint32_t small_bucket = 16;  // sorted below, hashed above
   // Blocks: one per thread, each at least 16k cells, and their histograms
   // (4 bytes per vertex each) at most 32 bytes per cell.
   uint64_t blocks = uint64_t(std::max(1, tbb::this_task_arena::max_concurrency()));
@@ -406,30 +411,59 @@ template <class Id, class Src> void match_hex_faces(Src const* idx, uint64_t n, 
   // The last block's cursors now end each bucket.
   uint32_t const* const end = cursor.data() + (blocks - 1) * nv;
   tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nv, 2048), [&](tbb::blocked_range<uint64_t> const& range) {
+    struct Group {
+      uint32_t head, count, second;  // first key of the group; keys in it; the last key
+    };
+    std::vector<Group> group;
+    std::vector<uint32_t> table;
     for (uint64_t a = range.begin(); a < range.end(); ++a) {
       uint32_t const first = a == 0 ? 0 : end[a - 1];
       HexFaceKey<Id>* const b = keys.data() + first;
       uint32_t const m = end[a] - first;
-      if (m > 32) {
-        std::sort(b, b + m);  // a vertex shared by many cells (a pyramid apex, a pole)
-      } else {
-        for (uint32_t i = 1; i < m; ++i) {  // insertion sort: a bucket holds a few faces
+      if (m <= small_bucket) {
+        for (uint32_t i = 1; i < m; ++i) {  // insertion sort: most buckets hold a few faces
           HexFaceKey<Id> const k = b[i];
           uint32_t j = i;
           for (; j > 0 && k < b[j - 1]; --j) b[j] = b[j - 1];
           b[j] = k;
         }
-      }
-      for (uint32_t i = 0; i < m;) {
-        uint32_t j = i + 1;
-        while (j < m && b[j].same_face(b[i])) ++j;
-        if (j - i == 2) {
-          across[b[i].slot] = int32_t(b[i + 1].slot / 6);
-          across[b[i + 1].slot] = int32_t(b[i].slot / 6);
-        } else {
-          for (uint32_t k = i; k < j; ++k) across[b[k].slot] = -1;  // the boundary, or more than two cells
+        for (uint32_t i = 0; i < m;) {
+          uint32_t j = i + 1;
+          while (j < m && b[j].same_face(b[i])) ++j;
+          if (j - i == 2) {
+            across[b[i].slot] = int32_t(b[i + 1].slot / 6);
+            across[b[i + 1].slot] = int32_t(b[i].slot / 6);
+          } else {
+            for (uint32_t k = i; k < j; ++k) across[b[k].slot] = -1;  // the boundary, or more than two cells
+          }
+          i = j;
         }
-        i = j;
+        continue;
+      }
+      // A vertex that is the smallest of many faces (OpenFOAM numbers the
+      // points of a snappy mesh so: the flange's buckets reach hundreds):
+      // equal faces meet in an open-addressing table (over twice the keys,
+      // linear probing), as in match_tet_faces, not in an m log m sort.
+      int bits = 4;
+      while ((uint32_t(1) << bits) < 2 * m) ++bits;
+      uint32_t const mask = (uint32_t(1) << bits) - 1;
+      table.assign(size_t(mask) + 1, m);  // m: empty
+      if (group.size() < m) group.resize(2 * size_t(m));
+      for (uint32_t i = 0; i < m; ++i) {
+        uint32_t h = uint32_t(b[i].hash() >> (64 - bits));
+        uint32_t t = table[h];
+        while (t != m && !b[t].same_face(b[i])) t = table[h = (h + 1) & mask];
+        uint32_t const head = t == m ? i : t;
+        table[h] = head;
+        group[i].head = head;
+        group[i].count = 0;
+        ++group[head].count;
+        group[head].second = i;
+      }
+      for (uint32_t i = 0; i < m; ++i) {
+        uint32_t const head = group[i].head;
+        uint32_t const other = i == head ? group[head].second : head;
+        across[b[i].slot] = group[head].count == 2 ? int32_t(b[other].slot / 6) : -1;
       }
     }
   });
