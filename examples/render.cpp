@@ -377,11 +377,12 @@ void add_options(CLI::App& app, Options& o) {
       ->check(CLI::IsMember({"samples", "segments"}))
       ->capture_default_str();
   app.add_flag("--no-march", o.no_march,
-               "DVR segments of tets: clip the cells of the BVH leaves each packet reaches instead of marching from "
-               "cell to cell through face neighbours (the same image; for comparisons)");
+               "DVR segments: clip the cells of the BVH leaves each packet reaches instead of marching from cell to "
+               "cell through face neighbours (16 bytes per tet, 24 per hexahedron; the same image up to rounding; "
+               "for comparisons)");
   app.add_flag("--march", o.march,
-               "DVR segments of hexahedra (wedges, pyramids and a mixed mesh's folded tets included) march through face neighbours too (24 "
-               "bytes per cell; the same image; pays on meshes with more cells than the image has pixels)")
+               "DVR segments march through face neighbours: the default for tets and hexahedra (wedges, pyramids and a "
+               "mixed mesh's folded tets included); kept for scripts")
       ->excludes("--no-march");
   app.add_option("--fold-tets", o.fold_tets,
                  "A mesh of tets and hexahedra (wedges, pyramids): store its tets as collapsed hexahedra, one part "
@@ -570,12 +571,12 @@ void load(Options const& o, Loaded& l) {
                       (g.report.skipped_count() ? " (all cells were skipped as unsupported)" : ""));
   // A mixed mesh with few tets (a snappyHexMesh mesh: hexes, wedges, and
   // the polyhedra's pyramids and tets) becomes one part: its tets as
-  // collapsed hexahedra, one BVH, and DVR with --march crosses all its
-  // cells. Folded tets run the hexahedron kernels, so only a few pay. One
-  // thread, 1024x768, folded against two parts: the flange (16% tets) iso
-  // 0.96-1.1x, DVR 1.05x, with --march 1.36x the speed; sphere_bl.geo's
-  // boundary-layer meshes (30-82% tets) iso 0.4-0.5x, DVR 0.5-0.75x, with
-  // --march 0.99-1.1x (docs/cli.md).
+  // collapsed hexahedra, one BVH, and DVR marches across all its cells.
+  // Folded tets run the hexahedron kernels, so only a few pay. One thread,
+  // 1024x768, folded against two parts: the flange (16% tets) iso
+  // 0.96-1.1x, DVR through the trees 1.05x, marching 1.36x the speed;
+  // sphere_bl.geo's boundary-layer meshes (30-82% tets) iso 0.4-0.5x, DVR
+  // 0.5-0.75x, marching 0.99-1.1x (docs/cli.md).
   bool const few_tets = 4 * g.tet_count() <= g.hex_count();  // at most a fifth of the cells
   bool const fold = o.fold_tets == "always" || (o.fold_tets == "auto" && few_tets);
   if (!g.tets.empty() && !g.hexes.empty() && fold) l.tets_as_hexes = g.fold_tets_into_hexes();
@@ -951,11 +952,13 @@ int run(Options const& o) {
   bool const march_dvr = o.mode == "dvr" && o.dvr_mode == "segments" && !o.no_march && !o.reference && one_part;
   bool const march = (march_dvr || (o.mode == "iso" && o.ao > 0 && o.secondary == "march" && !o.reference && one_part)) &&
                      !l.tets.empty();
-  // Hexes march on request only: a packet of a coarse hex mesh shares its
-  // cells, so the tree clips each once for all lanes (boxturb48's 110k
-  // hexes at 1024x1024: 0.9x), and the neighbours cost more than a frame
-  // saves on a fine one (1M hexes: 1.5-1.7x per frame, neighbours ~0.3 s).
-  bool const hex_march = march_dvr && o.march && !l.hexes.empty();
+  // Hexes march too: their neighbours build at 10-20 M cells/s on 2
+  // threads (issue #23), less than one frame gains. Fresh processes,
+  // 1024x768, 2 threads, total time through the tree / marching:
+  // boxturb48 1.38x, the snappy flange 1.69x, 1M generated hexes 1.50x;
+  // can.vtu's 4.8k shell hexes 0.83-0.88x, the only loss seen
+  // (docs/cli.md). --march is kept, a no-op.
+  bool const hex_march = march_dvr && !l.hexes.empty();
   if (march) {
     Phase ph(progress, "finding face neighbours of " + std::to_string(l.tets.cell_count()) + " tets");
     neighbours = build_tet_neighbours(l.tets);

@@ -10,6 +10,7 @@
 #include <array>
 #include <map>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -250,6 +251,89 @@ TEST_CASE("hex neighbours: hexes, wedges and pyramids as collapsed hexes, duplic
   bad[8 * 3 + 5] = uint32_t(g.xyz.size() / 3 + 2);
   CHECK_THROWS_WITH(build_hex_neighbours(HexMesh{view(g.xyz), view(bad), view(g.field)}),
                     Catch::Contains("cell 3 ") && Catch::Contains("corner 5"));
+}
+
+// Several blocks of the counting sort (mesh/neighbours.hpp: at least 16k
+// cells each, one per thread) over a shuffled mix of every hex-family kind,
+// each cell's corners relabelled by a symmetry of the cube, so a face
+// reaches its bucket from any corner slot: hexes, wedges and pyramids
+// (generate_hex_family), hexes cut into six tets folded as 0 1 2 2 3 3 3 3,
+// duplicated cells, pyramids over interior faces (faces of three cells)
+// fanning around vertex 0 (a bucket of over 16 faces: the hashed path; one
+// of them duplicated twice, so faces of three cells meet there too), a
+// triangle over three corners of a quad (no match: quads meet quads), and
+// cells with collapsed faces only.
+TEST_CASE("hex neighbours: a shuffled mix in several blocks, the same on any thread count", "[mesh][neighbours]") {
+  auto const g = generate_hex_family(32 * 32 * 32, 9);
+  std::vector<uint32_t> const& src = g.cells;
+  uint64_t const lattice_cells = src.size() / 8;
+  std::vector<std::array<uint32_t, 8>> cells;
+  std::mt19937_64 rng(11);
+  for (uint64_t c = 0; c < lattice_cells; ++c) {
+    std::array<uint32_t, 8> cell;
+    std::copy(src.begin() + long(8 * c), src.begin() + long(8 * c + 8), cell.begin());
+    bool const hex = cell[2] != cell[3] && cell[4] != cell[5] && cell[6] != cell[7];
+    if (hex && rng() % 50 == 0) {
+      // Six tets around the 0-6 diagonal, each folded into a hex.
+      int const tets[6][4] = {{0, 1, 2, 6}, {0, 2, 3, 6}, {0, 3, 7, 6}, {0, 7, 4, 6}, {0, 4, 5, 6}, {0, 5, 1, 6}};
+      for (auto const& t : tets)
+        cells.push_back({cell[t[0]], cell[t[1]], cell[t[2]], cell[t[2]], cell[t[3]], cell[t[3]], cell[t[3]], cell[t[3]]});
+      continue;
+    }
+    cells.push_back(cell);
+  }
+  std::vector<uint64_t> quads;  // cells whose bottom face is an interior quad of the lattice
+  for (uint64_t c = 0; c < cells.size() && quads.size() < 40; c += 97)
+    if (std::set<uint32_t>(cells[c].begin(), cells[c].begin() + 4).size() == 4 && cells[c][0] > 40 * 40) quads.push_back(c);
+  REQUIRE(quads.size() == 40);
+  for (uint64_t q : quads) {
+    auto const b = cells[q];
+    cells.push_back({b[0], b[1], b[2], b[3], 0, 0, 0, 0});  // a third cell on the face
+  }
+  auto const fan_pyramid = cells.back();
+  cells.insert(cells.end(), 2, fan_pyramid);  // its sides: triangles of three cells in vertex 0's bucket
+  for (uint64_t c : {uint64_t(17), uint64_t(20000), uint64_t(45000)}) cells.push_back(cells[c]);  // duplicated
+  auto const t = cells[quads[0]];
+  cells.push_back({t[0], t[1], t[2], t[2], 1, 1, 1, 1});   // a triangle over three corners of a quad
+  cells.push_back({t[0], t[1], t[2], t[3], t[0], t[1], t[2], t[3]});  // flat: its bottom and top are one face
+  cells.push_back({5, 5, 5, 5, 6, 6, 6, 6});                          // no face with area
+  std::shuffle(cells.begin(), cells.end(), rng);
+  // Corner relabellings that keep a hexahedron (and its collapsed kinds):
+  // a quarter turn about the 0-4 axis direction, and top and bottom swapped.
+  for (auto& c : cells) {
+    for (uint64_t turns = rng() % 4; turns > 0; --turns)
+      c = {c[1], c[2], c[3], c[0], c[5], c[6], c[7], c[4]};
+    if (rng() % 2) c = {c[4], c[5], c[6], c[7], c[0], c[1], c[2], c[3]};
+  }
+  std::vector<uint32_t> flat(8 * cells.size());
+  for (uint64_t c = 0; c < cells.size(); ++c) std::copy(cells[c].begin(), cells[c].end(), flat.begin() + long(8 * c));
+  HexMesh const m{view(g.xyz), view(flat), view(g.field)};
+  REQUIRE(m.cell_count() >= 3 * (uint64_t(1) << 14));
+  HexNeighbours one, two, four;
+  tbb::task_arena(1).execute([&] { one = build_hex_neighbours(m); });
+  tbb::task_arena(2).execute([&] {
+    two = build_hex_neighbours(m);
+    check_hex_against_brute_force(m);
+  });
+  tbb::task_arena(4).execute([&] { four = build_hex_neighbours(m); });
+  REQUIRE(one.cell_count() == m.cell_count());
+  CHECK(std::equal(one.data(), one.data() + 6 * m.cell_count(), two.data()));
+  CHECK(std::equal(one.data(), one.data() + 6 * m.cell_count(), four.data()));
+  // The same with 64-bit indices.
+  std::vector<uint64_t> const wide(flat.begin(), flat.end());
+  HexNeighbours const from_wide = build_hex_neighbours(HexMesh{view(g.xyz), view(wide), view(g.field)});
+  CHECK(std::equal(one.data(), one.data() + 6 * m.cell_count(), from_wide.data()));
+  // Bad vertex ids in the second and third blocks: the lower cell is named.
+  uint64_t const n = m.cell_count(), nv = m.vertex_count();
+  std::vector<uint32_t> bad = flat;
+  bad[8 * (2 * n / 3 + 10) + 6] = uint32_t(nv + 5);
+  bad[8 * (n / 3 + 20) + 1] = uint32_t(nv + 9);
+  HexMesh const broken{view(g.xyz), view(bad), view(g.field)};
+  tbb::task_arena(4).execute([&] {
+    CHECK_THROWS_WITH(build_hex_neighbours(broken), Catch::Contains("cell " + std::to_string(n / 3 + 20) + " ") &&
+                                                        Catch::Contains("corner 1") &&
+                                                        Catch::Contains("vertex " + std::to_string(nv + 9)));
+  });
 }
 
 // The wedge-only and pyramid-only generators (per-type accuracy rows,

@@ -287,11 +287,15 @@ inline constexpr int hex_face_corners[6][4] = {{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1
 
 /// A hex face in the bucket of its smallest vertex: its other distinct
 /// vertex ids, ascending (a triangle's third is the largest Id), and the
-/// slot 6 x cell + face it is of.
+/// slot 6 x cell + face it is of. 16 bytes with 32-bit ids.
 template <class Id> struct HexFaceKey {
   Id v[3];
   uint32_t slot;  ///< fits: build_hex_neighbours takes under 2^29 cells
   bool same_face(HexFaceKey const& o) const noexcept { return v[0] == o.v[0] && v[1] == o.v[1] && v[2] == o.v[2]; }
+  uint64_t hash() const noexcept {
+    uint64_t const h = (uint64_t(v[0]) * 0x9e3779b97f4a7c15ull ^ uint64_t(v[1])) * 0xff51afd7ed558ccdull;
+    return (h ^ uint64_t(v[2])) * 0xc4ceb9fe1a85ec53ull;
+  }
   bool operator<(HexFaceKey const& o) const noexcept {
     for (int i = 0; i < 3; ++i)
       if (v[i] != o.v[i]) return v[i] < o.v[i];
@@ -299,99 +303,167 @@ template <class Id> struct HexFaceKey {
   }
 };
 
-/// Face f of hex cell `id` (8 vertex ids): its distinct ids ascending in
-/// v[0..3), padded with `none`; returns how many there are.
-template <class Id> inline int hex_face_ids(uint64_t const id[8], int f, Id none, Id v[4]) noexcept {
-  Id w[4];
-  for (int i = 0; i < 4; ++i) w[i] = Id(id[hex_face_corners[f][i]]);
-  auto cswap = [](Id& x, Id& y) {
-    Id const lo = x < y ? x : y, hi = x < y ? y : x;
-    x = lo, y = hi;
-  };
-  cswap(w[0], w[1]), cswap(w[2], w[3]), cswap(w[0], w[2]), cswap(w[1], w[3]), cswap(w[1], w[2]);
-  int d = 0;
-  for (int i = 0; i < 4; ++i)
-    if (i == 0 || w[i] != w[i - 1]) v[d++] = w[i];
-  for (int i = d; i < 4; ++i) v[i] = none;
-  return d;
-}
+/// The six faces of one hex cell, each as its smallest vertex id (`low`),
+/// its key (the other distinct ids) and its count of distinct ids: read
+/// from the cell's 8 ids once, with sorting networks and selects (no
+/// branches on the ids).
+template <class Id> struct HexCellFaces {
+  Id low[6];
+  HexFaceKey<Id> key[6];
+  int distinct[6];
 
-/// build_hex_neighbours over `Id` vertex ids. Every face with three or
-/// more distinct vertices goes to the bucket of its smallest vertex (a
-/// counting sort: counts, a scan, a scatter, each cell's faces recomputed
-/// rather than stored), then each bucket is sorted on the other ids and a
-/// run of exactly two equal faces is a shared face. Buckets are small (a
-/// vertex is the smallest of a few faces) and processed in parallel; the
-/// total order within a bucket makes the result independent of the thread
-/// count and of the order the scatter filled it in.
-template <class Id> void match_hex_faces(HexMesh const& mesh, int32_t* across) {
-  uint64_t const n = mesh.cell_count(), nv = mesh.vertex_count();
-  constexpr Id none = std::numeric_limits<Id>::max();
-  constexpr uint64_t grain = 4096;
-  auto cell_ids = [&mesh](uint64_t c, uint64_t id[8]) {
-    for (int k = 0; k < 8; ++k) id[k] = mesh.vertex(c, k);
-  };
-  LargeVector<uint32_t> start;
-  resize_zeroed(start, nv + 1);
-  std::atomic<uint64_t> first_bad{n};
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, grain), [&](tbb::blocked_range<uint64_t> const& r) {
-    for (uint64_t c = r.begin(); c < r.end(); ++c) {
-      uint64_t id[8];
-      cell_ids(c, id);
-      bool bad = false;
-      for (uint64_t v : id) bad = bad || v >= nv;
-      if (bad) {
-        uint64_t seen = first_bad.load();
-        while (c < seen && !first_bad.compare_exchange_weak(seen, c)) {
+  template <class Src> void read(Src const* cell, uint64_t c) noexcept {
+    constexpr Id none = std::numeric_limits<Id>::max();
+    Id id[8];
+    for (int k = 0; k < 8; ++k) id[k] = Id(cell[k]);
+    auto cswap = [](Id& x, Id& y) {
+      Id const lo = x < y ? x : y, hi = x < y ? y : x;
+      x = lo, y = hi;
+    };
+    for (int f = 0; f < 6; ++f) {
+      Id w0 = id[hex_face_corners[f][0]], w1 = id[hex_face_corners[f][1]];
+      Id w2 = id[hex_face_corners[f][2]], w3 = id[hex_face_corners[f][3]];
+      cswap(w0, w1), cswap(w2, w3), cswap(w0, w2), cswap(w1, w3), cswap(w1, w2);
+      int const d = 1 + int(w0 != w1) + int(w1 != w2) + int(w2 != w3);
+      // With one repeated id (a triangle) the distinct ones are w0 and two
+      // of w1..w3: drop w1 when it repeats w0, w3 when it repeats w2.
+      low[f] = w0;
+      key[f].v[0] = w0 == w1 ? w2 : w1;
+      key[f].v[1] = d == 4 || w2 == w3 ? w2 : w3;
+      key[f].v[2] = d == 4 ? w3 : none;
+      key[f].slot = uint32_t(6 * c + uint64_t(f));
+      distinct[f] = d;
+    }
+  }
+};
+
+/// build_hex_neighbours over `Src` vertex ids (the mesh's index type),
+/// bucketed with `Id` (32-bit when the vertex count fits). Every face with
+/// three or more distinct vertices goes to the bucket of its smallest
+/// vertex: a parallel counting sort as in match_tet_faces (each block of
+/// cells counts into its own histogram over the vertices, no atomics; one
+/// scan; each block scatters its faces, recomputed from the cell's ids
+/// rather than stored), keys carrying the other ids so buckets read
+/// sequentially. Each bucket is then sorted on the other ids and a run of
+/// exactly two equal faces is a shared face. Buckets are small (a vertex is
+/// the smallest of a few faces) and processed in parallel; only the runs
+/// reach the result, so it does not depend on the blocks or thread count.
+template <class Id, class Src> void match_hex_faces(Src const* idx, uint64_t n, uint64_t nv, int32_t* across) {
+  constexpr uint32_t small_bucket = 16;  // sorted below, hashed above
+  // Blocks: one per thread, each at least 16k cells, and their histograms
+  // (4 bytes per vertex each) at most 32 bytes per cell.
+  uint64_t blocks = uint64_t(std::max(1, tbb::this_task_arena::max_concurrency()));
+  blocks = std::min(blocks, std::max<uint64_t>(1, n >> 14));
+  blocks = std::min(blocks, std::max<uint64_t>(1, 8 * n / std::max<uint64_t>(nv, 1)));
+  auto block_begin = [&](uint64_t b) { return b * n / blocks; };
+  LargeVector<uint32_t> cursor(blocks * nv);
+  std::atomic<uint64_t> first_bad{n};  // the first cell with a vertex id out of range
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& range) {
+    for (uint64_t b = range.begin(); b < range.end(); ++b) {
+      uint32_t* const count = cursor.data() + b * nv;
+      std::fill(count, count + nv, 0u);
+      for (uint64_t c = block_begin(b), e = block_begin(b + 1); c < e; ++c) {
+        Src const* const cell = idx + 8 * c;
+        Src top = cell[0];
+        for (int k = 1; k < 8; ++k) top = std::max(top, cell[k]);
+        if (top >= nv) {
+          uint64_t seen = first_bad.load();
+          while (c < seen && !first_bad.compare_exchange_weak(seen, c)) {
+          }
+          break;
         }
-        continue;
-      }
-      for (int f = 0; f < 6; ++f) {
-        Id v[4];
-        across[6 * c + uint64_t(f)] = -1;
-        if (hex_face_ids<Id>(id, f, none, v) >= 3) __atomic_fetch_add(&start[uint64_t(v[0]) + 1], 1u, __ATOMIC_RELAXED);
+        HexCellFaces<Id> faces;
+        faces.read(cell, c);
+        for (int f = 0; f < 6; ++f) {
+          if (faces.distinct[f] >= 3) ++count[faces.low[f]];
+          else across[6 * c + uint64_t(f)] = -1;  // no area: no neighbour
+        }
       }
     }
   });
   if (uint64_t const c = first_bad.load(); c < n) {
     for (int k = 0; k < 8; ++k)
-      if (mesh.vertex(c, k) >= nv)
+      if (uint64_t(idx[8 * c + uint64_t(k)]) >= nv)
         throw InvalidMesh("cell " + std::to_string(c) + " corner " + std::to_string(k) + " names vertex " +
-                          std::to_string(mesh.vertex(c, k)) + ", the mesh has " + std::to_string(nv));
+                          std::to_string(uint64_t(idx[8 * c + uint64_t(k)])) + ", the mesh has " + std::to_string(nv));
   }
-  for (uint64_t v = 0; v < nv; ++v) start[v + 1] += start[v];  // 6 faces per cell < 2^32 entries: see the caller
-  LargeVector<uint32_t> cursor(start.begin(), start.end() - 1);
-  LargeVector<HexFaceKey<Id>> keys(start[nv]);  // unset: every entry is written below
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, grain), [&](tbb::blocked_range<uint64_t> const& r) {
-    for (uint64_t c = r.begin(); c < r.end(); ++c) {
-      uint64_t id[8];
-      cell_ids(c, id);
-      for (int f = 0; f < 6; ++f) {
-        Id v[4];
-        if (hex_face_ids<Id>(id, f, none, v) < 3) continue;
-        uint32_t const at = __atomic_fetch_add(&cursor[uint64_t(v[0])], 1u, __ATOMIC_RELAXED);
-        keys[at] = HexFaceKey<Id>{{v[1], v[2], v[3]}, uint32_t(6 * c + uint64_t(f))};
+  // Bucket a holds, block by block, [cursor of block 0 in a, end of a).
+  // Under 6 x 2^29 faces: 32-bit offsets (see the caller).
+  uint32_t running = 0;
+  for (uint64_t a = 0; a < nv; ++a)
+    for (uint64_t b = 0; b < blocks; ++b) {
+      uint32_t const k = cursor[b * nv + a];
+      cursor[b * nv + a] = running;
+      running += k;
+    }
+  LargeVector<HexFaceKey<Id>> keys(running);  // unset: every entry is written below
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& range) {
+    for (uint64_t b = range.begin(); b < range.end(); ++b) {
+      uint32_t* const fill = cursor.data() + b * nv;
+      for (uint64_t c = block_begin(b), e = block_begin(b + 1); c < e; ++c) {
+        HexCellFaces<Id> faces;
+        faces.read(idx + 8 * c, c);
+        for (int f = 0; f < 6; ++f)
+          if (faces.distinct[f] >= 3) keys[fill[faces.low[f]]++] = faces.key[f];
       }
     }
   });
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nv, 2048), [&](tbb::blocked_range<uint64_t> const& r) {
-    for (uint64_t a = r.begin(); a < r.end(); ++a) {
-      HexFaceKey<Id>* const b = keys.data() + start[a];
-      uint32_t const m = start[a + 1] - start[a];
-      for (uint32_t i = 1; i < m; ++i) {  // insertion sort: a bucket holds a few faces
-        HexFaceKey<Id> const k = b[i];
-        uint32_t j = i;
-        for (; j > 0 && k < b[j - 1]; --j) b[j] = b[j - 1];
-        b[j] = k;
-      }
-      for (uint32_t i = 0; i < m;) {
-        uint32_t j = i + 1;
-        while (j < m && b[j].same_face(b[i])) ++j;
-        if (j - i == 2) {
-          across[b[i].slot] = int32_t(b[i + 1].slot / 6);
-          across[b[i + 1].slot] = int32_t(b[i].slot / 6);
+  // The last block's cursors now end each bucket.
+  uint32_t const* const end = cursor.data() + (blocks - 1) * nv;
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nv, 2048), [&](tbb::blocked_range<uint64_t> const& range) {
+    struct Group {
+      uint32_t head, count, second;  // first key of the group; keys in it; the last key
+    };
+    std::vector<Group> group;
+    std::vector<uint32_t> table;
+    for (uint64_t a = range.begin(); a < range.end(); ++a) {
+      uint32_t const first = a == 0 ? 0 : end[a - 1];
+      HexFaceKey<Id>* const b = keys.data() + first;
+      uint32_t const m = end[a] - first;
+      if (m <= small_bucket) {
+        for (uint32_t i = 1; i < m; ++i) {  // insertion sort: most buckets hold a few faces
+          HexFaceKey<Id> const k = b[i];
+          uint32_t j = i;
+          for (; j > 0 && k < b[j - 1]; --j) b[j] = b[j - 1];
+          b[j] = k;
         }
-        i = j;
+        for (uint32_t i = 0; i < m;) {
+          uint32_t j = i + 1;
+          while (j < m && b[j].same_face(b[i])) ++j;
+          if (j - i == 2) {
+            across[b[i].slot] = int32_t(b[i + 1].slot / 6);
+            across[b[i + 1].slot] = int32_t(b[i].slot / 6);
+          } else {
+            for (uint32_t k = i; k < j; ++k) across[b[k].slot] = -1;  // the boundary, or more than two cells
+          }
+          i = j;
+        }
+        continue;
+      }
+      // A vertex that is the smallest of many faces (OpenFOAM numbers the
+      // points of a snappy mesh so: the flange's buckets reach hundreds):
+      // equal faces meet in an open-addressing table (over twice the keys,
+      // linear probing), as in match_tet_faces, not in an m log m sort.
+      int bits = 4;
+      while ((uint32_t(1) << bits) < 2 * m) ++bits;
+      uint32_t const mask = (uint32_t(1) << bits) - 1;
+      table.assign(size_t(mask) + 1, m);  // m: empty
+      if (group.size() < m) group.resize(2 * size_t(m));
+      for (uint32_t i = 0; i < m; ++i) {
+        uint32_t h = uint32_t(b[i].hash() >> (64 - bits));
+        uint32_t t = table[h];
+        while (t != m && !b[t].same_face(b[i])) t = table[h = (h + 1) & mask];
+        uint32_t const head = t == m ? i : t;
+        table[h] = head;
+        group[i].head = head;
+        group[i].count = 0;
+        ++group[head].count;
+        group[head].second = i;
+      }
+      for (uint32_t i = 0; i < m; ++i) {
+        uint32_t const head = group[i].head;
+        uint32_t const other = i == head ? group[head].second : head;
+        across[b[i].slot] = group[head].count == 2 ? int32_t(b[other].slot / 6) : -1;
       }
     }
   });
@@ -401,11 +473,13 @@ template <class Id> void match_hex_faces(HexMesh const& mesh, int32_t* across) {
 
 /// Matches every face of a hexahedral mesh (wedges and pyramids included as
 /// collapsed hexahedra) with the face of another cell over the same distinct
-/// vertices: faces bucketed by their smallest vertex, matched within each
-/// bucket (detail::match_hex_faces), in parallel on TBB; the result does
-/// not depend on the thread count. Transient memory: up to 96 bytes per
-/// cell (192 beyond 2^32 vertices) and 8 per vertex; large arrays are
-/// advised as huge pages.
+/// vertices: faces bucketed by their smallest vertex (a counting sort in
+/// parallel, per block of cells), matched within each bucket
+/// (detail::match_hex_faces), in parallel on TBB; the result does not
+/// depend on the thread count. Transient memory: 16 bytes per face with
+/// area, up to 96 per cell (32 and 192 from 2^32 - 1 vertices), plus 4 per
+/// vertex and thread (at most 32 more per cell); large arrays are advised as
+/// huge pages.
 /// @throws InvalidArgument when the mesh has 2^29 cells or more, or
 ///         InvalidMesh naming the first cell with a vertex id out of range.
 inline HexNeighbours build_hex_neighbours(HexMesh const& mesh) {
@@ -417,8 +491,13 @@ inline HexNeighbours build_hex_neighbours(HexMesh const& mesh) {
   out.vertex_count_ = nv;
   out.fingerprint_ = HexNeighbours::fingerprint(mesh);
   if (n == 0) return out;
-  if (nv < (uint64_t(1) << 32)) detail::match_hex_faces<uint32_t>(mesh, out.across_.data());
-  else detail::match_hex_faces<uint64_t>(mesh, out.across_.data());
+  int32_t* const across = out.across_.data();
+  // 32-bit keys while no vertex is 2^32 - 1: that id pads a triangle's key.
+  bool const narrow = nv < (uint64_t(1) << 32);
+  if (mesh.has_32bit_indices() && narrow) detail::match_hex_faces<uint32_t>(mesh.indices32(), n, nv, across);
+  else if (mesh.has_32bit_indices()) detail::match_hex_faces<uint64_t>(mesh.indices32(), n, nv, across);
+  else if (narrow) detail::match_hex_faces<uint32_t>(mesh.indices64(), n, nv, across);
+  else detail::match_hex_faces<uint64_t>(mesh.indices64(), n, nv, across);
   return out;
 }
 
