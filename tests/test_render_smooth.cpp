@@ -191,6 +191,32 @@ TEST_CASE("vertex gradients match a double-precision sum over the cells, whateve
   check(generate_hexes(16 * 16 * 16, 3));
 }
 
+TEST_CASE("wedges and pyramids give every vertex a gradient, the collapsed side's and the apex's too",
+          "[render][smooth]") {
+  // One cell each, as the readers store them: a vertex only a collapsed
+  // corner touches has no other cell to take a gradient from. A linear
+  // field: every vertex's gradient is the field's.
+  auto check = [](std::vector<float> const& xyz, std::vector<uint32_t> const& cell) {
+    std::vector<float> f;
+    for (size_t v = 0; v < xyz.size(); v += 3) f.push_back(2.f * xyz[v] - 3.f * xyz[v + 1] + 0.5f * xyz[v + 2]);
+    VertexGradients const vg = build_vertex_gradients(HexMesh{view(xyz), view(cell), view(f), "f"});
+    for (uint64_t v = 0; v < vg.vertex_count(); ++v) {
+      INFO("vertex " << v);
+      CHECK(std::abs(vg.data()[3 * v] - 2.f) < 1e-4f);  // false for NaN
+      CHECK(std::abs(vg.data()[3 * v + 1] + 3.f) < 1e-4f);
+      CHECK(std::abs(vg.data()[3 * v + 2] - 0.5f) < 1e-4f);
+    }
+  };
+  std::vector<float> const wedge = {0, 0, 0, 1.2f, 0.1f, 0, 0.2f, 0.9f, 0.1f, 0.1f, 0, 1, 1.1f, 0.2f, 1.1f, 0.3f, 1, 0.9f};
+  std::vector<uint32_t> as_hex;
+  for (int k : wedge_as_hex) as_hex.push_back(uint32_t(k));
+  check(wedge, as_hex);
+  std::vector<float> const pyramid = {0, 0, 0, 1, 0.1f, 0, 1.1f, 1, 0.1f, 0, 0.9f, 0, 0.4f, 0.6f, 0.8f};
+  as_hex.clear();
+  for (int k : pyramid_as_hex) as_hex.push_back(uint32_t(k));
+  check(pyramid, as_hex);
+}
+
 TEST_CASE("a tet folded into a hexahedron has the tet's vertex gradients", "[render][smooth]") {
   // 0 1 2 2 3 3 3 3, as a mixed mesh folded into one part stores it. A field
   // that is not linear, so a vertex's average depends on every cell around it.

@@ -117,6 +117,22 @@ template <int N> VertexGradients build_vertex_gradients(CellMesh<N> const& mesh)
       for (int k = 0; k < 8; ++k)
         detail::add_corner_gradient(xyz, val, v[k], v[nb[k][0]], v[nb[k][1]], v[nb[k][2]], 1.0, g + 3 * v[k],
                                     weight[v[k]]);
+      // Where an edge has collapsed, the loop's corner has an edge of no
+      // length and adds nothing: a wedge's two vertices on its collapsed
+      // side and a pyramid's apex would get nothing from their cells (NaN
+      // where no other cell adds). A wedge's corner gradient there is the
+      // linear field through it, the other two corners of its triangle and
+      // the corner across (its shape functions are linear along those
+      // edges); a pyramid has none at its apex, which takes the four
+      // tetrahedra of the apex and three consecutive base corners.
+      if (v[2] == v[3] && v[6] == v[7] && v[2] != v[6]) {  // mesh/vtk_cells.hpp's wedge_as_hex
+        detail::add_corner_gradient(xyz, val, v[2], v[0], v[1], v[6], 1.0, g + 3 * v[2], weight[v[2]]);
+        detail::add_corner_gradient(xyz, val, v[6], v[4], v[5], v[2], 1.0, g + 3 * v[6], weight[v[6]]);
+      } else if (v[4] == v[5] && v[4] == v[6] && v[4] == v[7]) {  // pyramid_as_hex
+        for (int k = 0; k < 4; ++k)
+          detail::add_corner_gradient(xyz, val, v[4], v[k], v[(k + 1) % 4], v[(k + 3) % 4], 1.0, g + 3 * v[4],
+                                      weight[v[4]]);
+      }
     }
   }
   for (uint64_t i = 0; i < nv; ++i)
