@@ -72,7 +72,7 @@ with open("docs/first_image.csv", "w", newline="") as f:
         other = j["wall_ms"] - sum(j[p] for p in phases)
         ts = [x["wall_ms"] for x in runs[name]]
         w.writerow([name, j["cells"]] + [round(j[p], 1) for p in phases] + [round(other, 1), round(j["wall_ms"], 1), round(min(ts), 1), round(max(ts), 1), round(j["total_ms"], 1)])
-fig, ax = plt.subplots(figsize=(8, 3.6))
+fig, ax = plt.subplots(figsize=(8, 4.2))
 left = [0.0] * len(rows)
 colors = plt.get_cmap("tab10").colors
 for k, p in enumerate(phases + ["other"]):
@@ -82,7 +82,7 @@ for k, p in enumerate(phases + ["other"]):
 ax.invert_yaxis()
 ax.set_xlabel("ms from process start to the image on disk (median of %d fresh runs)" % len(next(iter(runs.values()))))
 ax.set_title("First image of a new mesh, 1024x768, cellray-render --stats, wall time around the process (%s)" % sys.argv[2], fontsize=9)
-ax.legend(fontsize=7, ncol=5, loc="lower right")
+ax.legend(fontsize=7, ncol=10, loc="upper center", bbox_to_anchor=(0.5, -0.2), frameon=False, columnspacing=1.0)
 fig.tight_layout()
 fig.savefig("docs/first_image.png", dpi=110)
 for name, j in rows:
