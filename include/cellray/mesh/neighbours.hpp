@@ -1,13 +1,16 @@
 #pragma once
-// Face neighbours of a tetrahedral mesh: for each cell and face, the cell on
-// the other side. Cell-segment DVR and ambient-occlusion rays march from cell
-// to cell through them instead of clipping every cell of every BVH leaf a
-// packet reaches (traverse/march.hpp). Topology only: a new time step
+// Face neighbours of a tetrahedral or a hexahedral mesh (wedges, pyramids
+// and folded tets as collapsed hexahedra): for each cell and face, the cell
+// on the other side. Cell-segment DVR (tets and hexahedra) and
+// ambient-occlusion rays (tets) march from cell to cell through them
+// instead of clipping every cell of every BVH leaf a packet reaches
+// (traverse/march.hpp). Topology only: a new time step
 // (CellMesh::with_values) keeps them; new connectivity needs a new build.
 //
-// Face f of a cell is the face opposite its f-th corner in ascending vertex
-// id order: the order the tet kernels use (cells/corners.hpp, tet.hpp), so
-// the clip's exit face index picks the entry across it directly.
+// Tets: face f of a cell is the face opposite its f-th corner in ascending
+// vertex id order, the order the tet kernels use (cells/corners.hpp,
+// tet.hpp), so the clip's exit face index picks the entry across it
+// directly. Hexahedra: VTK's faces in cells/hex.hpp's order.
 
 #include <algorithm>
 #include <atomic>
