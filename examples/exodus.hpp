@@ -9,7 +9,9 @@
 // cellray-render loads beside itself for an Exodus file only: Debian's
 // Exodus library pulls in netCDF, HDF5, OpenMPI, curl and ~50 shared
 // libraries whose loading and relocation cost every run of cellray-render
-// ~40 ms before main (measured on the team's VMs), whatever file it reads.
+// ~30 ms of CPU and ~20 ms of wall time before main (`--help`: 36-45 ms of
+// CPU linked, 9-10 without; scripts/first-image.sh's startup 39-41 ms
+// linked, 17-22 without, on the team's VMs), whatever file it reads.
 //
 // Kept: every element block of volume elements (TETRA*, HEX*, WEDGE*,
 // PYRAMID*, higher-order ones as their corner cells; the corner order is
