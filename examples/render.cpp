@@ -943,13 +943,14 @@ int run(Options const& o) {
     throw InvalidMesh(l.name + ": point array '" + array + "' has no finite value: nothing to render");
 
   // Cell-segment DVR of a tet or a hex mesh (wedges and pyramids included)
-  // marches through face neighbours; so do the AO rays of a tet mesh. The
-  // renderer marches through one part only.
+  // marches through face neighbours; so does a mixed mesh kept as two
+  // parts, across both (link_face_neighbours), and the AO rays of a tet
+  // mesh.
   TetNeighbours neighbours;
   HexNeighbours hex_neighbours;
   double neighbours_ms = 0;
   bool const one_part = l.tets.empty() != l.hexes.empty();
-  bool const march_dvr = o.mode == "dvr" && o.dvr_mode == "segments" && !o.no_march && !o.reference && one_part;
+  bool const march_dvr = o.mode == "dvr" && o.dvr_mode == "segments" && !o.no_march && !o.reference;
   bool const march = (march_dvr || (o.mode == "iso" && o.ao > 0 && o.secondary == "march" && !o.reference && one_part)) &&
                      !l.tets.empty();
   // Hexes march too: their neighbours build at 10-20 M cells/s on 2
@@ -959,7 +960,14 @@ int run(Options const& o) {
   // can.vtu's 4.8k shell hexes 0.83-0.88x, the only loss seen
   // (docs/cli.md). --march is kept, a no-op.
   bool const hex_march = march_dvr && !l.hexes.empty();
-  if (march) {
+  if (march && hex_march) {
+    Phase ph(progress, "finding face neighbours of " + std::to_string(l.tets.cell_count()) + " tets and " +
+                           std::to_string(l.hexes.cell_count()) + " hexahedra");
+    neighbours = build_tet_neighbours(l.tets);
+    hex_neighbours = build_hex_neighbours(l.hexes);
+    link_face_neighbours(l.tets, neighbours, l.hexes, hex_neighbours);
+    neighbours_ms = ph.finish();
+  } else if (march) {
     Phase ph(progress, "finding face neighbours of " + std::to_string(l.tets.cell_count()) + " tets");
     neighbours = build_tet_neighbours(l.tets);
     neighbours_ms = ph.finish();

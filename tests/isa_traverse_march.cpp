@@ -50,6 +50,56 @@ void MarchProbe<Arch>::run(TetMesh const& mesh, MinMaxBvh const& bvh, TetNeighbo
 CELLRAY_INSTANTIATE_ENTRY(MarchProbe)
 
 template <class Arch>
+void MixedMarchProbe<Arch>::run(TetMesh const& tets, MinMaxBvh const& tet_bvh, TetNeighbours const& tet_nb,
+                                HexMesh const& hexes, MinMaxBvh const& hex_bvh, HexNeighbours const& hex_nb,
+                                Ray const* rays, int n, int how, MixedMarchProbeOut* out) {
+  constexpr int W = width<Arch>;
+  TreeView const tet_tree(tet_bvh), hex_tree(hex_bvh);
+  ValueWindows const all;
+  for (int first = 0; first < n; first += W) {
+    int const m = n - first < W ? n - first : W;
+    RayPacket<Arch> const r = load_rays<Arch>(rays + first, m);
+    MixedMarch<Arch> march(tet_tree, tets, tet_nb, hex_tree, hexes, hex_nb, r, all, r.tmin, r.tmax);
+    vmask<Arch> live = simd::mask_from_bits<Arch>(m >= 32 ? ~0u : (1u << m) - 1u);
+    for (int l = 0; l < m; ++l) out[first + l] = MixedMarchProbeOut{};
+    int last_part[W];
+    for (int l = 0; l < W; ++l) last_part[l] = -1;  // -1: just located
+    while (simd::any(live)) {
+      vmask<Arch> const has = live && march.has_cell();
+      vmask<Arch> const need = live && !has;
+      if (simd::any(need)) {
+        for (uint32_t b = simd::movemask(need); b; b &= b - 1) {
+          ++out[first + __builtin_ctz(b)].locates;
+          last_part[__builtin_ctz(b)] = -1;
+        }
+        live = live && !march.locate(need, Traversal(how), W / 2);
+        continue;
+      }
+      auto const tet_cells = simd::to_array<Arch>(march.tets.cell), hex_cells = simd::to_array<Arch>(march.hexes.cell);
+      auto const st = march.step(has, false);
+      uint32_t const in_hex = simd::movemask(st.in_hex);
+      for (uint32_t b = simd::movemask(has); b; b &= b - 1) {
+        int const l = __builtin_ctz(b);
+        bool const hex = (in_hex >> l) & 1u;
+        auto const& k = hex ? st.hex.k : st.tet.k;
+        bool const vis = (simd::movemask(hex ? st.hex.visible : st.tet.visible) >> l) & 1u;
+        MixedMarchProbeOut& o = out[first + l];
+        ++o.steps;
+        o.crossings += last_part[l] >= 0 && last_part[l] != int(hex);
+        last_part[l] = int(hex);
+        if (vis && o.count < march_capacity)
+          o.seg[o.count++] = CellSegment{simd::to_array<Arch>(k.t_in)[size_t(l)], simd::to_array<Arch>(k.t_out)[size_t(l)],
+                                         simd::to_array<Arch>(k.s_in)[size_t(l)], simd::to_array<Arch>(k.s_out)[size_t(l)],
+                                         uint32_t(hex), uint64_t(uint32_t(hex ? hex_cells[size_t(l)] : tet_cells[size_t(l)]))};
+      }
+      live = live && march.t < march.tets.t_end;
+    }
+  }
+}
+
+CELLRAY_INSTANTIATE_ENTRY(MixedMarchProbe)
+
+template <class Arch>
 void MarchOcclusionProbe<Arch>::run(TetMesh const& mesh, MinMaxBvh const& bvh, TetNeighbours const& nb,
                                     Ray const* rays, int32_t const* start, int n, IsoSet const& isos,
                                     uint8_t* occluded, uint8_t* undecided, float* t_done) {

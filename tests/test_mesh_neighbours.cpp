@@ -16,6 +16,7 @@
 
 #include <tbb/task_arena.h>
 
+#include <cellray/io/read_mesh.hpp>
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/neighbours.hpp>
 #include <cellray/mesh/validate.hpp>
@@ -370,6 +371,95 @@ TEST_CASE("hex neighbours: generate_wedges and generate_pyramids conform", "[mes
     CHECK_FALSE(r.inverted);
     CHECK_FALSE(r.zero_volume);
   }
+}
+
+// A mixed mesh's two parts (mesh/neighbours.hpp, link_face_neighbours): a
+// triangle on one tet and one hex-family cell (a wedge's end, a pyramid's
+// side) links them, -2 - (the other part's cell) on both sides; faces within
+// a part keep their neighbours; a triangle of more cells (a tet duplicated
+// at the interface) links nothing. Against a brute-force map over both parts.
+TEST_CASE("linked neighbours: tets and hexahedra of a mixed mesh across their shared triangles", "[mesh][neighbours]") {
+  for (char const* file : {"mixed22.msh", "sphere_bl_small.msh"}) {
+    UnstructuredGrid g = read_mesh(std::string(CELLRAY_TEST_DATA) + "/gmsh/" + file);
+    std::vector<float> const field(g.vertex_count(), 1.f);
+    for (bool duplicate : {false, true}) {
+      std::vector<uint32_t> tet_ids(g.tets.begin(), g.tets.end());
+      HexMesh const hm = g.hex_mesh().with_values(view(field));
+      if (duplicate) {  // copies of the tets with a face on a hexahedron's triangle
+        std::set<std::vector<uint64_t>> hex_triangles;
+        for (uint64_t c = 0; c < hm.cell_count(); ++c)
+          for (int f = 0; f < 6; ++f)
+            if (auto const v = hex_face(hm, c, f); v.size() == 3) hex_triangles.insert(v);
+        for (size_t c = 0, n = tet_ids.size() / 4; c < n; c += 3) {
+          std::array<uint64_t, 4> v{tet_ids[4 * c], tet_ids[4 * c + 1], tet_ids[4 * c + 2], tet_ids[4 * c + 3]};
+          std::sort(v.begin(), v.end());
+          bool on = false;
+          for (int f = 0; f < 4; ++f) {
+            Face const t = face_of(v, f);
+            on = on || hex_triangles.count({t[0], t[1], t[2]});
+          }
+          if (on) tet_ids.insert(tet_ids.end(), tet_ids.begin() + long(4 * c), tet_ids.begin() + long(4 * c + 4));
+        }
+      }
+      TetMesh const tm = TetMesh(view(g.xyz), view(tet_ids)).with_values(view(field));
+      INFO(file << (duplicate ? ", tets duplicated at the interface" : ""));
+      // Brute force: every face with area of both parts by its distinct ids.
+      std::map<std::vector<uint64_t>, std::vector<uint64_t>> tets_of, hexes_of;
+      for (uint64_t c = 0; c < tm.cell_count(); ++c)
+        if (auto const v = sorted_ids(tm, c); !degenerate(v))
+          for (int f = 0; f < 4; ++f) {
+            Face const t = face_of(v, f);
+            tets_of[{t[0], t[1], t[2]}].push_back(c);
+          }
+      for (uint64_t c = 0; c < hm.cell_count(); ++c)
+        for (int f = 0; f < 6; ++f)
+          if (auto const v = hex_face(hm, c, f); v.size() >= 3) hexes_of[v].push_back(c);
+      auto want = [&](std::vector<uint64_t> const& face, uint64_t self, bool self_hex) -> int32_t {
+        auto const& same = self_hex ? hexes_of[face] : tets_of[face];
+        auto const& other = self_hex ? tets_of[face] : hexes_of[face];
+        // Pairs within a part stay as built, whatever the other part has there.
+        if (same.size() == 2) return int32_t(same[0] == self ? same[1] : same[0]);
+        if (same.size() == 1 && other.size() == 1) return -2 - int32_t(other[0]);
+        return -1;
+      };
+      TetNeighbours tn = build_tet_neighbours(tm);
+      HexNeighbours hn = build_hex_neighbours(hm);
+      CHECK_FALSE(tn.linked_to(hm));
+      for (int round = 0; round < 2; ++round) {  // linking again changes nothing
+        link_face_neighbours(tm, tn, hm, hn);
+        CHECK(tn.linked_to(hm));
+        CHECK(hn.linked_to(tm));
+        CHECK(tn.fits(tm));
+        int wrong = 0, links = 0;
+        for (uint64_t c = 0; c < tm.cell_count(); ++c) {
+          auto const v = sorted_ids(tm, c);
+          for (int f = 0; f < 4; ++f) {
+            Face const t = face_of(v, f);
+            int32_t const w = degenerate(v) ? -1 : want({t[0], t[1], t[2]}, c, false);
+            wrong += tn.across(c, f) != w;
+            links += w <= -2;
+          }
+        }
+        for (uint64_t c = 0; c < hm.cell_count(); ++c)
+          for (int f = 0; f < 6; ++f) {
+            auto const v = hex_face(hm, c, f);
+            int32_t const w = v.size() >= 3 ? want(v, c, true) : -1;
+            wrong += hn.across(c, f) != w;
+            links += w <= -2;
+          }
+        CHECK(wrong == 0);
+        if (!duplicate) CHECK(links > 20);  // both files have an interface of triangles
+      }
+    }
+  }
+  // Parts over different vertex arrays, and neighbours of another mesh, are refused.
+  auto const a = generate_tets(6 * 3 * 3 * 3, 1);
+  auto const b = generate_hex_family(3 * 3 * 3, 1);
+  TetNeighbours tn = build_tet_neighbours(a.mesh());
+  HexNeighbours hn = build_hex_neighbours(b.mesh());
+  CHECK_THROWS_WITH(link_face_neighbours(a.mesh(), tn, b.mesh(), hn), Catch::Contains("one vertex array"));
+  auto const c = generate_tets(6 * 4 * 4 * 4, 1);
+  CHECK_THROWS_WITH(link_face_neighbours(c.mesh(), tn, b.mesh(), hn), Catch::Contains("another mesh"));
 }
 
 }  // namespace test_mesh_neighbours

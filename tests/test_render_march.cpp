@@ -225,6 +225,62 @@ TEST_CASE("a mixed mesh with its tets folded into the hexahedra renders as its t
   CHECK(inside > 1000);
 }
 
+TEST_CASE("DVR march: a mixed mesh kept as two parts marches across both when their neighbours are linked",
+          "[render][dvr][isa]") {
+  // mixed22: tets, pyramids, hexahedra; sphere_bl_small: a boundary layer
+  // of hexahedra and prisms under tets, pyramids between, a hole.
+  for (char const* file : {"mixed22.msh", "sphere_bl_small.msh"}) {
+    UnstructuredGrid g = read_mesh(std::string(CELLRAY_TEST_DATA) + "/gmsh/" + file);
+    std::vector<float> field(g.vertex_count());
+    for (uint64_t v = 0; v < g.vertex_count(); ++v) {
+      float const* q = &g.xyz[3 * v];
+      field[v] = std::sin(3.f * q[0]) + q[1] * q[1] + 0.5f * q[2];
+    }
+    TetMesh const tm = g.tet_mesh().with_values(view(field));
+    HexMesh const hm = g.hex_mesh().with_values(view(field));
+    MinMaxBvh tb = build_minmax_bvh(tm), hb = build_minmax_bvh(hm);
+    TetNeighbours tn = build_tet_neighbours(tm);
+    HexNeighbours hn = build_hex_neighbours(hm);
+    Scene tree;
+    tree.tets.push_back({tm, &tb});
+    tree.hexes.push_back({hm, &hb});
+    Scene march;
+    march.tets.push_back({tm, &tb, nullptr, &tn});
+    march.hexes.push_back({hm, &hb, nullptr, nullptr, &hn});
+    // Unlinked neighbours: the two trees (the march cannot cross).
+    CHECK_FALSE(render_detail::prepare(march).mixed_march);
+    link_face_neighbours(tm, tn, hm, hn);
+    CHECK(render_detail::prepare(march).mixed_march);
+    Camera const cam = camera_for(tree, 56, 56);
+    RenderOptions const o = test::isa_options();
+    float const lo = *std::min_element(field.begin(), field.end()), hi = *std::max_element(field.begin(), field.end());
+    DvrParams p = segments(busy_tf(lo, hi, diagonal(tree) / 6.f), diagonal(tree) / 250.f);
+    auto check = [&](std::string const& what, double max_ref_rmse) {
+      Image const a = render_dvr(march, cam, p, o), b = render_dvr(tree, cam, p, o);
+      ImageDiff const d = compare_images(a, b, 0.5);
+      report(std::string(file) + " " + what + ": mixed march vs two trees", d);
+      CHECK(d.nonfinite == 0);
+      CHECK(d.rmse < 0.01);
+      CHECK(d.max < 0.5);
+      if (max_ref_rmse > 0) {
+        ImageDiff const r = compare_images(a, render_dvr_reference(tree, cam, p), 2.0);
+        report(std::string(file) + " " + what + ": mixed march vs reference", r);
+        CHECK(r.rmse < max_ref_rmse);
+      }
+    };
+    check("", 0.3);
+    p.shading.enabled = true;
+    check("shaded", 0.3);
+    p.shading.enabled = false;
+    p.tf.unit_distance = diagonal(tree) / 100.f;  // dense: most rays terminate inside
+    check("dense", 0);
+    for (size_t v = 0; v < field.size(); v += 29) field[v] = std::numeric_limits<float>::quiet_NaN();
+    tb = build_minmax_bvh(tm), hb = build_minmax_bvh(hm);  // the scenes point at these
+    p.tf.unit_distance = diagonal(tree) / 6.f;
+    check("NaN cells", 0);
+  }
+}
+
 TEST_CASE("DVR march: boxturb48 hexes, a narrow band of enstrophy", "[render][dvr][isa][data]") {
   auto const path = test::shared_data_file("openfoam/boxturb48_dns.vtk");
   if (!path) return;

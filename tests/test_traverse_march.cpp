@@ -19,6 +19,7 @@
 
 #include <cellray/bvh/build.hpp>
 #include <cellray/cells/reference.hpp>
+#include <cellray/io/read_mesh.hpp>
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/neighbours.hpp>
 #include <cellray/traverse/occlusion_query.hpp>
@@ -227,6 +228,140 @@ TEST_CASE("march: a value window skips transparent stretches through the tree, w
   CHECK(locates[1] >= locates[2]);
   CHECK(steps[0] < steps[1]);
   CHECK(steps[1] < steps[2]);
+}
+
+namespace {
+
+/// Every cell of both parts crossed by the ray within [tmin, tmax] (double
+/// reference clips), as oracle(): `cell` is the tet's id, or the
+/// hexahedron's + 2^40.
+constexpr uint64_t hex_tag = uint64_t(1) << 40;
+std::vector<Crossing> mixed_oracle(TetMesh const& tets, HexMesh const& hexes, Ray const& r) {
+  ref::Ray const rr{glm::dvec3(r.org), glm::dvec3(r.dir)};
+  std::vector<Crossing> out;
+  auto add = [&](ref::Clip const& k, uint64_t cell) {
+    if (k.hit && k.t_out >= double(r.tmin) && k.t_in <= double(r.tmax)) out.push_back({k.t_in, k.t_out, k.s_in, k.s_out, cell});
+  };
+  for (uint64_t c = 0; c < tets.cell_count(); ++c) add(ref::clip(ref::load(tets, c), rr), c);
+  for (uint64_t c = 0; c < hexes.cell_count(); ++c) add(ref::clip(ref::load(hexes, c), rr), c + hex_tag);
+  return out;
+}
+
+/// A smooth field over a mixed gmsh mesh from tests/data, its two parts
+/// (sharing the grid's vertices), their trees and linked neighbours.
+struct MixedParts {
+  UnstructuredGrid grid;
+  std::vector<float> field;
+  TetMesh tets;
+  HexMesh hexes;
+  MinMaxBvh tet_bvh, hex_bvh;
+  TetNeighbours tet_nb;
+  HexNeighbours hex_nb;
+  explicit MixedParts(std::string const& file) : grid(read_mesh(std::string(CELLRAY_TEST_DATA) + "/gmsh/" + file)) {
+    field.resize(grid.vertex_count());
+    for (uint64_t v = 0; v < grid.vertex_count(); ++v) {
+      float const* q = &grid.xyz[3 * v];
+      field[v] = std::sin(3.f * q[0]) + q[1] * q[1] + 0.5f * q[2];
+    }
+    tets = grid.tet_mesh().with_values(view(field));
+    hexes = grid.hex_mesh().with_values(view(field));
+    tet_bvh = build_minmax_bvh(tets), hex_bvh = build_minmax_bvh(hexes);
+    tet_nb = build_tet_neighbours(tets), hex_nb = build_hex_neighbours(hexes);
+  }
+};
+
+/// Generic rays from outside [lo, hi] to random points of its middle
+/// (the box shrunk to 30% about its centre: where both files' parts meet).
+std::vector<Ray> rays_into(glm::vec3 lo, glm::vec3 hi, int n, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u01(0.f, 1.f), u(-1.f, 1.f);
+  std::vector<Ray> rays;
+  glm::vec3 const c = 0.5f * (lo + hi);
+  float const diag = glm::length(hi - lo);
+  for (int i = 0; i < n; ++i) {
+    glm::vec3 const target = c + 0.3f * (glm::vec3(u01(rng), u01(rng), u01(rng)) - 0.5f) * (hi - lo);
+    glm::vec3 d(u(rng), u(rng), u(rng));
+    if (!(glm::length(d) > 0.1f)) d = glm::vec3(0.3f, 0.5f, 0.8f);
+    glm::vec3 const org = c - 1.5f * diag * glm::normalize(d) + 0.2f * (target - c);
+    rays.push_back({org, 0.f, target - org, 2.f});
+  }
+  return rays;
+}
+
+}  // namespace
+
+TEST_CASE("march: a mixed mesh's tets and hexahedra (wedges, pyramids) march as one across linked faces",
+          "[traverse][isa]") {
+  // mixed22: a hex block glued to a tet block, pyramids between (convex);
+  // sphere_bl_small: prisms and hexahedra grown from a sphere, tets out to a
+  // box, pyramids between (rays cross the sphere's hole).
+  for (char const* file : {"mixed22.msh", "sphere_bl_small.msh"}) {
+    MixedParts m(file);
+    REQUIRE(m.tets.cell_count() > 0);
+    REQUIRE(m.hexes.cell_count() > 0);
+    glm::vec3 lo(1e30f), hi(-1e30f);
+    for (uint64_t v = 0; v < m.grid.vertex_count(); ++v) lo = glm::min(lo, m.tets.position(v)), hi = glm::max(hi, m.tets.position(v));
+    std::vector<Ray> const rays = rays_into(lo, hi, 160, 21);
+    int const n = int(rays.size());
+    auto run = [&](int how, std::vector<test::MixedMarchProbeOut>& out) {
+      out.assign(rays.size(), {});
+      dispatch<test::MixedMarchProbe>(test::isa(), m.tets, m.tet_bvh, m.tet_nb, m.hexes, m.hex_bvh, m.hex_nb,
+                                      rays.data(), n, how, out.data());
+      int locates = 0, crossings = 0;
+      for (auto const& o : out) locates += o.locates, crossings += o.crossings;
+      return std::make_pair(locates, crossings);
+    };
+    std::vector<test::MixedMarchProbeOut> out;
+    auto const unlinked = run(0, out);
+    CHECK(unlinked.second == 0);  // without links a lane never crosses to the other part
+    link_face_neighbours(m.tets, m.tet_nb, m.hexes, m.hex_nb);
+    for (int how : {0, 1, 2}) {
+      auto const linked = run(how, out);
+      INFO(file << ", traversal " << how << ": " << linked.first << " locates and " << linked.second
+                << " crossings linked; " << unlinked.first << " locates unlinked");
+      CHECK(linked.second > n / 4);
+      CHECK(linked.first < unlinked.first);
+      // A locate where a ray enters the mesh and where it leaves it (mixed22,
+      // convex: twice; sphere_bl: twice more through the hole), not at every
+      // change of part.
+      CHECK(linked.first <= 4 * n);
+      double const tol = 1e-4, tiny = 1e-3;
+      for (int i = 0; i < n; ++i) {
+        Ray const& r = rays[size_t(i)];
+        test::MixedMarchProbeOut const& o = out[size_t(i)];
+        std::vector<Crossing> const ref = mixed_oracle(m.tets, m.hexes, r);
+        INFO("ray " << i << ": " << o.count << " segments, " << ref.size() << " in the oracle");
+        REQUIRE(o.count < test::march_capacity);
+        std::vector<std::pair<double, double>> mi, ri;
+        double prev_end = double(r.tmin);
+        for (int k = 0; k < o.count; ++k) {
+          CellSegment const& sg = o.seg[k];
+          CHECK(double(sg.t_out) > prev_end);  // one after the other
+          mi.push_back({std::max(double(sg.t_in), prev_end), double(sg.t_out)});
+          prev_end = double(sg.t_out);
+          uint64_t const key = sg.cell + (sg.piece ? hex_tag : 0);
+          auto const it = std::find_if(ref.begin(), ref.end(), [&](Crossing const& x) { return x.cell == key; });
+          if (it == ref.end()) {  // a graze the double clip misses
+            CHECK(sg.t_out - sg.t_in <= tiny);
+            continue;
+          }
+          CHECK(std::abs(double(sg.t_in) - it->t_in) <= tol);
+          CHECK(std::abs(double(sg.t_out) - it->t_out) <= tol);
+          CHECK(std::abs(double(sg.v_in) - it->s_in) <= tol * 10);
+          CHECK(std::abs(double(sg.v_out) - it->s_out) <= tol * 10);
+        }
+        for (Crossing const& x : ref) ri.push_back({x.t_in, x.t_out});
+        double const a = double(r.tmin), b = double(r.tmax);
+        CHECK(std::abs(union_length(mi, a, b) - union_length(ri, a, b)) <= tol * double(2 + o.count));
+        for (Crossing const& x : ref) {  // every crossing longer than `tiny` was stepped through
+          if (x.t_out - x.t_in <= tiny || x.t_out < a + tiny || x.t_in > b - tiny) continue;
+          bool found = false;
+          for (int k = 0; k < o.count && !found; ++k) found = o.seg[k].cell + (o.seg[k].piece ? hex_tag : 0) == x.cell;
+          CHECK(found);
+        }
+      }
+    }
+  }
 }
 
 namespace {

@@ -32,6 +32,20 @@ template <class Arch> struct MarchProbe {
 };
 CELLRAY_EXTERN_ENTRY(MarchProbe)
 
+/// MixedMarch (traverse/march.hpp) over a mixed mesh's two parts with
+/// linked face neighbours, as MarchProbe: segments carry `piece` 0 (a tet)
+/// or 1 (a hexahedron); `crossings` counts steps that went on in the other
+/// part without a locate in between.
+struct MixedMarchProbeOut : MarchProbeOut {
+  int crossings = 0;
+};
+template <class Arch> struct MixedMarchProbe {
+  static void run(TetMesh const& tets, MinMaxBvh const& tet_bvh, TetNeighbours const& tet_nb, HexMesh const& hexes,
+                  MinMaxBvh const& hex_bvh, HexNeighbours const& hex_nb, Ray const* rays, int n, int how,
+                  MixedMarchProbeOut* out);
+};
+CELLRAY_EXTERN_ENTRY(MixedMarchProbe)
+
 /// march_occluded (traverse/march.hpp) on `rays[i]` starting in cell
 /// `start[i]`, packets of W: per ray occluded (1/0), undecided (1/0: the
 /// march could not finish) and how far it got without a crossing.

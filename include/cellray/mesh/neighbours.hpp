@@ -206,7 +206,10 @@ template <class Id, class Src> void match_tet_faces(Src const* idx, uint64_t n, 
 /// Face neighbours of a mesh with N corners per cell: `across(cell, f)` is
 /// the cell sharing face f, or -1 on the mesh boundary and at a face shared
 /// by more than two cells (duplicated or overlapping cells: no single
-/// neighbour is right).
+/// neighbour is right). After link_face_neighbours, a value v <= -2 names
+/// cell -2 - v of the other part of a mixed mesh (a tet's face shared with a
+/// wedge's or pyramid's triangle); readers that know no other part treat it
+/// as the boundary, as they treat -1.
 /// - Tets (TetNeighbours, 16 bytes per cell): faces opposite each corner;
 ///   every face of a cell with a repeated vertex id is -1 (degenerate).
 /// - Hexahedra (HexNeighbours, 24 bytes per cell; wedges and pyramids read
@@ -236,9 +239,20 @@ template <int N> class FaceNeighbours {
     return mesh.cell_count() == cell_count() && mesh.vertex_count() == vertex_count_ && fingerprint(mesh) == fingerprint_;
   }
 
+  /// Whether the links into another part (values <= -2) name cells of
+  /// `other`, by the same check as `fits`: link_face_neighbours linked these
+  /// with neighbours of `other`.
+  template <int M> bool linked_to(CellMesh<M> const& other) const noexcept {
+    return linked_ && M != N && other.cell_count() == linked_cells_ && other.vertex_count() == vertex_count_ &&
+           FaceNeighbours<M>::fingerprint(other) == linked_fingerprint_;
+  }
+
  private:
+  template <int> friend class FaceNeighbours;
   friend FaceNeighbours<4> build_tet_neighbours(TetMesh const& mesh);
   friend FaceNeighbours<8> build_hex_neighbours(HexMesh const& mesh);
+  friend void link_face_neighbours(TetMesh const& tets, FaceNeighbours<4>& tet_nb, HexMesh const& hexes,
+                                   FaceNeighbours<8>& hex_nb);
   static uint64_t fingerprint(CellMesh<N> const& mesh) noexcept {
     uint64_t const n = mesh.cell_count();
     uint64_t h = 0x9e3779b97f4a7c15ull;
@@ -250,6 +264,8 @@ template <int N> class FaceNeighbours {
   }
   detail::LargeVector<int32_t> across_;  // unset until built
   uint64_t vertex_count_ = 0, fingerprint_ = 0;
+  bool linked_ = false;  ///< link_face_neighbours ran: the other part's cell count and fingerprint
+  uint64_t linked_cells_ = 0, linked_fingerprint_ = 0;
 };
 
 using TetNeighbours = FaceNeighbours<4>;
@@ -502,6 +518,104 @@ inline HexNeighbours build_hex_neighbours(HexMesh const& mesh) {
   else if (narrow) detail::match_hex_faces<uint32_t>(mesh.indices64(), n, nv, across);
   else detail::match_hex_faces<uint64_t>(mesh.indices64(), n, nv, across);
   return out;
+}
+
+/// Links the face neighbours of a mixed mesh's two parts, tets and
+/// hexahedra (wedges and pyramids as collapsed ones) over one vertex array:
+/// a tet face on its part's boundary and a wedge's or pyramid's triangle on
+/// the other part's boundary over the same three vertices become each
+/// other's neighbours, stored as -2 - (the other part's cell) in both (see
+/// FaceNeighbours). Cell-segment DVR of a scene of exactly these two parts
+/// then marches across both (traverse/march.hpp, MixedMarch), with each
+/// cell's own kernel, where it would otherwise clip every cell of both
+/// trees' leaves. Links already present are replaced; a face met by more
+/// than one cell of either part stays -1. Boundary faces only are read:
+/// transient memory 40 bytes per boundary triangle.
+/// @throws InvalidArgument when either neighbours were built over another
+///         mesh, or the parts do not share their vertex array (ids would
+///         not name the same points).
+inline void link_face_neighbours(TetMesh const& tets, TetNeighbours& tet_nb, HexMesh const& hexes,
+                                 HexNeighbours& hex_nb) {
+  if (!tet_nb.fits(tets) || !hex_nb.fits(hexes))
+    throw InvalidArgument("link_face_neighbours: face neighbours built over another mesh");
+  if (tets.vertex_count() != hexes.vertex_count() || tets.positions() != hexes.positions())
+    throw InvalidArgument("link_face_neighbours: the tetrahedral and hexahedral parts must index one vertex array (" +
+                          std::to_string(tets.vertex_count()) + " and " + std::to_string(hexes.vertex_count()) +
+                          " vertices)");
+  struct Triangle {
+    uint64_t v[3];  ///< ascending
+    uint64_t slot;  ///< faces x cell + face in its part
+    bool hex;
+    bool operator<(Triangle const& o) const noexcept {
+      for (int i = 0; i < 3; ++i)
+        if (v[i] != o.v[i]) return v[i] < o.v[i];
+      return hex != o.hex ? hex < o.hex : slot < o.slot;  // a total order: the result does not depend on threads
+    }
+    bool same(Triangle const& o) const noexcept { return v[0] == o.v[0] && v[1] == o.v[1] && v[2] == o.v[2]; }
+  };
+  // Boundary triangles of both parts, in fixed blocks of cells (the order
+  // does not matter: sorted below). Old links are boundary again first.
+  int32_t* const ta = tet_nb.across_.data();
+  int32_t* const ha = hex_nb.across_.data();
+  for (uint64_t i = 0; i < tet_nb.across_.size(); ++i) ta[i] = std::max(ta[i], int32_t(-1));
+  for (uint64_t i = 0; i < hex_nb.across_.size(); ++i) ha[i] = std::max(ha[i], int32_t(-1));
+  constexpr uint64_t block = uint64_t(1) << 15;
+  uint64_t const nt = tets.cell_count(), nh = hexes.cell_count();
+  uint64_t const tet_blocks = (nt + block - 1) / block, blocks = tet_blocks + (nh + block - 1) / block;
+  std::vector<std::vector<Triangle>> found(blocks);
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& r) {
+    for (uint64_t b = r.begin(); b < r.end(); ++b) {
+      auto& out = found[b];
+      if (b < tet_blocks) {
+        for (uint64_t c = b * block, e = std::min(nt, c + block); c < e; ++c) {
+          if (ta[4 * c] >= 0 && ta[4 * c + 1] >= 0 && ta[4 * c + 2] >= 0 && ta[4 * c + 3] >= 0) continue;
+          uint64_t id[4] = {tets.vertex(c, 0), tets.vertex(c, 1), tets.vertex(c, 2), tets.vertex(c, 3)};
+          uint64_t v[4];
+          detail::sorted_corners(id, v);
+          if (v[0] == v[1] || v[1] == v[2] || v[2] == v[3]) continue;  // degenerate: no faces
+          for (int f = 0; f < 4; ++f) {
+            if (ta[4 * c + uint64_t(f)] >= 0) continue;
+            Triangle t{{0, 0, 0}, 4 * c + uint64_t(f), false};  // face f: opposite sorted corner f
+            for (int i = 0, k = 0; i < 4; ++i)
+              if (i != f) t.v[k++] = v[i];
+            out.push_back(t);
+          }
+        }
+      } else {
+        uint64_t const hb = b - tet_blocks;
+        for (uint64_t c = hb * block, e = std::min(nh, c + block); c < e; ++c) {
+          bool open = false;
+          for (int f = 0; f < 6; ++f) open = open || ha[6 * c + uint64_t(f)] < 0;
+          if (!open) continue;
+          uint64_t id[8];
+          for (int i = 0; i < 8; ++i) id[i] = hexes.vertex(c, i);
+          detail::HexCellFaces<uint64_t> faces;
+          faces.read(id, 0);
+          for (int f = 0; f < 6; ++f)
+            if (faces.distinct[f] == 3 && ha[6 * c + uint64_t(f)] < 0)
+              out.push_back(Triangle{{faces.low[f], faces.key[f].v[0], faces.key[f].v[1]}, 6 * c + uint64_t(f), true});
+        }
+      }
+    }
+  });
+  std::vector<Triangle> all;
+  for (auto& f : found) all.insert(all.end(), f.begin(), f.end());
+  found.clear();
+  std::sort(all.begin(), all.end());
+  // A run of exactly one tet face and one hexahedron face is a link; a face
+  // of one part alone is the boundary; more cells on one face: none is right.
+  for (size_t i = 0; i < all.size();) {
+    size_t j = i + 1;
+    while (j < all.size() && all[j].same(all[i])) ++j;
+    if (j - i == 2 && !all[i].hex && all[i + 1].hex) {
+      ta[all[i].slot] = -2 - int32_t(all[i + 1].slot / 6);
+      ha[all[i + 1].slot] = -2 - int32_t(all[i].slot / 4);
+    }
+    i = j;
+  }
+  tet_nb.linked_ = hex_nb.linked_ = true;
+  tet_nb.linked_cells_ = nh, tet_nb.linked_fingerprint_ = HexNeighbours::fingerprint(hexes);
+  hex_nb.linked_cells_ = nt, hex_nb.linked_fingerprint_ = TetNeighbours::fingerprint(tets);
 }
 
 }  // namespace cellray

@@ -292,23 +292,93 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
   depth = simd::load<A>(depth_lane.data());
 }
 
+/// One march step as integrate_march composites it, per lane: the piece
+/// [a, e] of the cell segment [t_in, t_out] not integrated yet, whether to
+/// integrate it (`go`), and the field (and, when shading, its gradient)
+/// along the segment as cubics in lambda = (t - t_in) / (t_out - t_in):
+/// integrate_segments' FieldSegment (tets: linear; hexes: SegmentQuery's
+/// cubic through four on-ray values).
+template <class A> struct MarchPiece {
+  vfloat<A> a, e, t_in, t_out;
+  vmask<A> go;
+  isa_detail::Cubic<A> f, g[3];
+};
+
+template <class A, int N>
+MarchPiece<A> march_piece(RayBatch<A> const& ray, typename CellMarch<A, N>::Step const& st, vmask<A> const& go,
+                          bool shade) {
+  vfloat<A> const zero(0.f);
+  MarchPiece<A> pc{st.a, st.e, st.k.t_in, st.k.t_out, go, {st.k.s_in, st.k.s_out - st.k.s_in, zero, zero}, {}};
+  if constexpr (N == 8) {
+    Vec3<A> u1, u2;
+    vfloat<A> const v1 = SegmentQuery<A, 8>::hex_on_ray(ray, st.c, st.k, go, 1.f / 3.f, u1);
+    vfloat<A> const v2 = SegmentQuery<A, 8>::hex_on_ray(ray, st.c, st.k, go, 2.f / 3.f, u2);
+    pc.f = isa_detail::cubic_through<A>(st.k.s_in, v1, v2, st.k.s_out);
+    if (shade) {
+      Vec3<A> const g0 = isa_detail::hex_world_gradient(st.c, st.k.u_in), g1 = isa_detail::hex_world_gradient(st.c, u1);
+      Vec3<A> const g2 = isa_detail::hex_world_gradient(st.c, u2), g3 = isa_detail::hex_world_gradient(st.c, st.k.u_out);
+      pc.g[0] = isa_detail::cubic_through<A>(g0.x, g1.x, g2.x, g3.x);
+      pc.g[1] = isa_detail::cubic_through<A>(g0.y, g1.y, g2.y, g3.y);
+      pc.g[2] = isa_detail::cubic_through<A>(g0.z, g1.z, g2.z, g3.z);
+    }
+  } else if (shade) {  // a tet's gradient is constant
+    pc.g[0] = {st.gradient.x, zero, zero, zero};
+    pc.g[1] = {st.gradient.y, zero, zero, zero};
+    pc.g[2] = {st.gradient.z, zero, zero, zero};
+  }
+  return pc;
+}
+
+/// One step of a one-type march: the lanes of `has` move one cell;
+/// `open` are the lanes still gathering opacity.
+template <class A, int N>
+MarchPiece<A> march_step(CellMarch<A, N>& m, RayBatch<A> const& ray, vmask<A> const& has, vmask<A> const& open,
+                         bool shade) {
+  typename CellMarch<A, N>::Step const st = m.step(has, shade);
+  return march_piece<A, N>(ray, st, st.visible && open, shade);
+}
+
+/// One step of a mixed march: each part's lanes with its own field, merged.
+template <class A>
+MarchPiece<A> march_step(MixedMarch<A>& m, RayBatch<A> const& ray, vmask<A> const& has, vmask<A> const& open,
+                         bool shade) {
+  typename MixedMarch<A>::Step const st = m.step(has, shade);
+  vmask<A> const go_tet = st.in_tet && st.tet.visible && open, go_hex = st.in_hex && st.hex.visible && open;
+  if (simd::none(go_hex)) {
+    if (simd::any(go_tet)) return march_piece<A, 4>(ray, st.tet, go_tet, shade);
+    MarchPiece<A> none;
+    none.go = simd::no_lanes<A>();
+    return none;
+  }
+  MarchPiece<A> const h = march_piece<A, 8>(ray, st.hex, go_hex, shade);
+  if (simd::none(go_tet)) return h;
+  MarchPiece<A> pc = march_piece<A, 4>(ray, st.tet, go_tet, shade);
+  auto pick = [&](vfloat<A>& x, vfloat<A> const& y) { x = simd::select(go_hex, y, x); };
+  auto pick_cubic = [&](isa_detail::Cubic<A>& x, isa_detail::Cubic<A> const& y) {
+    pick(x.c0, y.c0), pick(x.c1, y.c1), pick(x.c2, y.c2), pick(x.c3, y.c3);
+  };
+  pick(pc.a, h.a), pick(pc.e, h.e), pick(pc.t_in, h.t_in), pick(pc.t_out, h.t_out);
+  pick_cubic(pc.f, h.f);
+  if (shade)
+    for (int k = 0; k < 3; ++k) pick_cubic(pc.g[k], h.g[k]);
+  pc.go = go_tet || go_hex;
+  return pc;
+}
+
 /// Cell-segment DVR by marching (traverse/march.hpp): the same segments as
 /// integrate_segments, the same pieces (at most `step` long, the transfer
-/// function at each piece's midpoint), the same field along a segment (tets:
-/// linear; hexes: SegmentQuery's cubic) and the same compositing, but one
-/// cell per lane per step, integrated across the lanes in SIMD as it is
-/// found. Parts with face neighbours only (PreparedPart::neighbours,
-/// hex_neighbours), one part.
-template <class A, int N>
-void integrate_march(PreparedScene const& s, TreeView const& tree, CellMesh<N> const& mesh,
-                     FaceNeighbours<N> const& nb, RayPacket<A> const& r, vmask<A> const& inside,
-                     vfloat<A> const& t_enter, vfloat<A> const& t_exit, DvrParams const& p, Traversal how,
-                     int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca, float depth_at,
-                     vfloat<A>& depth) {
+/// function at each piece's midpoint), the same field along a segment and
+/// the same compositing, but one cell per lane per step, integrated across
+/// the lanes in SIMD as it is found. `March`: a CellMarch (one part with
+/// face neighbours) or a MixedMarch (a tet and a hexahedral part, linked),
+/// set up over [t_enter, t_exit].
+template <class A, class March>
+void integrate_march(PreparedScene const& s, March& m, RayPacket<A> const& r, vmask<A> const& inside,
+                     vfloat<A> const& t_exit, DvrParams const& p, Traversal how, int threshold, vfloat<A>& cr,
+                     vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca, float depth_at, vfloat<A>& depth) {
   PreparedTf const& ptf = *s.tf;
   bool const shade = p.shading.enabled;
   vfloat<A> const zero(0.f), one(1.f), half(0.5f), term(p.termination), inv_step(1.f / s.step);
-  CellMarch<A, N> m(tree, mesh, nb, r, s.windows, t_enter, t_exit);
   RayBatch<A> const ray = ray_batch(r);
   vmask<A> live = inside;
   while (simd::any(live)) {
@@ -322,43 +392,20 @@ void integrate_march(PreparedScene const& s, TreeView const& tree, CellMesh<N> c
       live = live && !m.locate(live, how, threshold);
       continue;
     }
-    typename CellMarch<A, N>::Step const st = m.step(has, shade);
-    vmask<A> const go = st.visible && ca < term;
-    if (simd::any(go)) {
-      vfloat<A> const len = st.e - st.a;
+    MarchPiece<A> const pc = march_step(m, ray, has, ca < term, shade);
+    if (simd::any(pc.go)) {
+      vfloat<A> const len = pc.e - pc.a;
       vfloat<A> const pieces = simd::max(one, simd::ceil(len * inv_step));
       vfloat<A> const d = len / pieces;
-      vfloat<A> const seg_len = st.k.t_out - st.k.t_in;
+      vfloat<A> const seg_len = pc.t_out - pc.t_in;
       vmask<A> const long_enough = seg_len > zero;
       vfloat<A> const inv_len = one / simd::select(long_enough, seg_len, one);
-      // The field along the segment as value(lambda) (integrate_segments'
-      // FieldSegment): a tet's line, a hex's cubic through four points.
-      isa_detail::Cubic<A> f{st.k.s_in, st.k.s_out - st.k.s_in, zero, zero};
-      isa_detail::Cubic<A> gc[3];
-      if constexpr (N == 8) {
-        Vec3<A> u1, u2;
-        vfloat<A> const v1 = SegmentQuery<A, 8>::hex_on_ray(ray, st.c, st.k, go, 1.f / 3.f, u1);
-        vfloat<A> const v2 = SegmentQuery<A, 8>::hex_on_ray(ray, st.c, st.k, go, 2.f / 3.f, u2);
-        f = isa_detail::cubic_through<A>(st.k.s_in, v1, v2, st.k.s_out);
-        if (shade) {
-          Vec3<A> const g0 = isa_detail::hex_world_gradient(st.c, st.k.u_in), g1 = isa_detail::hex_world_gradient(st.c, u1);
-          Vec3<A> const g2 = isa_detail::hex_world_gradient(st.c, u2), g3 = isa_detail::hex_world_gradient(st.c, st.k.u_out);
-          gc[0] = isa_detail::cubic_through<A>(g0.x, g1.x, g2.x, g3.x);
-          gc[1] = isa_detail::cubic_through<A>(g0.y, g1.y, g2.y, g3.y);
-          gc[2] = isa_detail::cubic_through<A>(g0.z, g1.z, g2.z, g3.z);
-        }
-      }
       vfloat<A> piece(0.f);
-      for (vmask<A> on = go; simd::any(on); piece = piece + one, on = on && piece < pieces && ca < term) {
-        vfloat<A> const tm = st.a + (piece + half) * d;
-        vfloat<A> const lam = simd::select(long_enough, (tm - st.k.t_in) * inv_len, zero);
-        PieceColor<A> c = piece_color<A>(ptf, f.c0 + lam * (f.c1 + lam * (f.c2 + lam * f.c3)), d);  // as integrate_pieces
-        if (shade) {
-          if constexpr (N == 8)
-            shade_batch<A>(p.shading, s.inv_gradient_full, gc[0](lam), gc[1](lam), gc[2](lam), r, c.r, c.g, c.b);
-          else
-            shade_batch<A>(p.shading, s.inv_gradient_full, st.gradient.x, st.gradient.y, st.gradient.z, r, c.r, c.g, c.b);
-        }
+      for (vmask<A> on = pc.go; simd::any(on); piece = piece + one, on = on && piece < pieces && ca < term) {
+        vfloat<A> const tm = pc.a + (piece + half) * d;
+        vfloat<A> const lam = simd::select(long_enough, (tm - pc.t_in) * inv_len, zero);
+        PieceColor<A> c = piece_color<A>(ptf, pc.f(lam), d);  // as integrate_pieces
+        if (shade) shade_batch<A>(p.shading, s.inv_gradient_full, pc.g[0](lam), pc.g[1](lam), pc.g[2](lam), r, c.r, c.g, c.b);
         vfloat<A> const w = simd::select(on, simd::min((one - ca) * c.a, term - ca), zero);  // exact termination
         cr = cr + w * c.r, cg = cg + w * c.g, cb = cb + w * c.b;
         depth = simd::select(ca < vfloat<A>(depth_at) && ca + w >= vfloat<A>(depth_at), tm, depth);

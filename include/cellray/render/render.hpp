@@ -41,8 +41,8 @@ template <int N> struct ScenePart {
   /// (build_vertex_gradients, 12 bytes per vertex; again for a time step).
   VertexGradients const* gradients = nullptr;
   /// Face neighbours (build_hex_neighbours, 24 bytes per cell): cell-segment
-  /// DVR marches through them, as a tet part's (see ScenePart<4>; one part
-  /// only). Faster where cells are small against a packet's footprint (1M
+  /// DVR marches through them, as a tet part's (see ScenePart<4>: one part,
+  /// or a tet and a hexahedral part linked by link_face_neighbours). Faster where cells are small against a packet's footprint (1M
   /// hexes at 1024x1024, 1 thread: 1.4-1.8x the rays per second); coarse
   /// meshes do as well through the tree (boxturb48's 110k: 0.9-1.1x).
   HexNeighbours const* neighbours = nullptr;
@@ -54,7 +54,9 @@ template <int N> struct ScenePart {
 /// rays march from their hit cells (traverse/march.hpp; component8, 1 thread:
 /// DVR 2.8x the rays per second, shadow + AO rays 1.1x). The same image up
 /// to rounding (AO: bit for bit); without them (nullptr) both use the tree
-/// alone. Used only when a scene has one part, and for meshes whose gather
+/// alone. Used when a scene has one part, or exactly one tet and one
+/// hexahedral part whose neighbours link_face_neighbours linked (a mixed
+/// mesh's two parts: DVR marches across both), and for meshes whose gather
 /// offsets fit 31 bits (under 2^29 cells and 2^31 / 3 vertices).
 template <> struct ScenePart<4> {
   CellMesh<4> mesh;

@@ -66,6 +66,11 @@ inline PreparedScene prepare(Scene const& scene) {
   PreparedScene s;
   for (size_t i = 0; i < scene.tets.size(); ++i) add_part(scene.tets[i], &scene.tets[i].mesh, s, i);
   for (size_t i = 0; i < scene.hexes.size(); ++i) add_part(scene.hexes[i], &scene.hexes[i].mesh, s, i);
+  if (s.parts.size() == 2 && s.parts[0].neighbours && s.parts[1].hex_neighbours) {
+    ScenePart<4> const& t = scene.tets[0];
+    ScenePart<8> const& h = scene.hexes[0];
+    s.mixed_march = t.neighbours->linked_to(h.mesh) && h.neighbours->linked_to(t.mesh);
+  }
   scene.bounds(s.lo, s.hi);
   // The diagonal in double: a box of finite floats can have a diagonal over
   // FLT_MAX, and a default step of 1/500 would then never cross it.

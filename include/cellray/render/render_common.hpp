@@ -47,6 +47,9 @@ struct PreparedScene {
   PreparedTf const* tf = nullptr;
   float inv_gradient_full = 0.f;  ///< DVR shading: 1 / DvrShading::gradient_full after defaults
   PreparedClip clip;              ///< the region kept (no planes: everything)
+  /// DVR segments: a tet part and a hexahedral part whose face neighbours
+  /// are linked to each other (link_face_neighbours) march as one mesh.
+  bool mixed_march = false;
   bool color_by = false;          ///< iso: colour by PreparedPart::color_values through `colors`
   ColorTable colors;
 };

@@ -56,13 +56,21 @@ void dvr_packet(PreparedScene const& s, DvrParams const& p, RenderOptions const&
   if (p.mode == DvrMode::samples)
     integrate_samples<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, scratch.sample_cull.data(), cr, cg,
                          cb, ca, depth_at, depth);
-  else if (march && s.parts[0].tets)
-    integrate_march<A, 4>(s, s.parts[0].tree, *s.parts[0].tets, *s.parts[0].neighbours, r, inside, t_enter, t_exit, p,
-                          o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
-  else if (march)
-    integrate_march<A, 8>(s, s.parts[0].tree, *s.parts[0].hexes, *s.parts[0].hex_neighbours, r, inside, t_enter,
-                          t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
-  else
+  else if (march && s.parts[0].tets) {
+    PreparedPart const& pp = s.parts[0];
+    CellMarch<A, 4> m(pp.tree, *pp.tets, *pp.neighbours, r, s.windows, t_enter, t_exit);
+    integrate_march<A>(s, m, r, inside, t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
+  } else if (march) {
+    PreparedPart const& pp = s.parts[0];
+    CellMarch<A, 8> m(pp.tree, *pp.hexes, *pp.hex_neighbours, r, s.windows, t_enter, t_exit);
+    integrate_march<A>(s, m, r, inside, t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
+  } else if (s.mixed_march) {
+    PreparedPart const& pt = s.parts[0];  // prepare() puts the tets first
+    PreparedPart const& ph = s.parts[1];
+    MixedMarch<A> m(pt.tree, *pt.tets, *pt.neighbours, ph.tree, *ph.hexes, *ph.hex_neighbours, r, s.windows, t_enter,
+                    t_exit);
+    integrate_march<A>(s, m, r, inside, t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
+  } else
     integrate_segments<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, scratch.segments, cr, cg, cb, ca,
                           depth_at, depth);
 }

@@ -46,6 +46,17 @@ inline vmask<A> visible_values(ValueWindows const& w, CellCorners<A, N> const& c
   return windows_overlap<A>(w, vmin, vmax);
 }
 
+/// Traverses `tree` with query q for the lanes of `ask`, as `how` says.
+template <class A, class Q>
+inline void traverse_query(TreeView const& tree, RayPacket<A> const& r, vmask<A> const& ask, Q& q, Traversal how,
+                           int threshold) {
+  switch (how) {
+    case Traversal::packet: traverse_packet<A>(tree, r, ask, q); break;
+    case Traversal::hybrid: traverse_packet<A>(tree, r, ask, q, 0, threshold); break;
+    case Traversal::spmd: traverse_spmd<A>(tree, r, ask, q); break;
+  }
+}
+
 /// Per lane, the visible cell the ray is in or enters first after `lo`: the
 /// smallest t_in of the cells whose clip interval ends past lo (strictly, so
 /// a march from it progresses) and starts by `hi`, with no NaN corner value
@@ -146,11 +157,7 @@ template <class A, int N> struct CellMarch {
     vmask<A> const stuck = need && t == located_at;
     vmask<A> const ask = need && !stuck;
     FirstCellQuery<A, N> q(tree, mesh, r, windows, t, t_end);
-    switch (how) {
-      case Traversal::packet: traverse_packet<A>(tree, r, ask, q); break;
-      case Traversal::hybrid: traverse_packet<A>(tree, r, ask, q, 0, threshold); break;
-      case Traversal::spmd: traverse_spmd<A>(tree, r, ask, q); break;
-    }
+    traverse_query<A>(tree, r, ask, q, how, threshold);
     vmask<A> const found = ask && simd::to_float_mask(q.cell >= vint<A>(0));
     cell = simd::select(simd::to_int_mask(found), q.cell, cell);
     faint = simd::select(simd::to_int_mask(found), vint<A>(0), faint);
@@ -235,6 +242,83 @@ template <class A, int N> struct CellMarch {
 
 /// The tet march (cell-segment DVR and AO rays of tet meshes).
 template <class A> using TetMarch = CellMarch<A, 4>;
+
+/// The march of a mixed mesh's two parts, tets and hexahedra (wedges and
+/// pyramids as collapsed ones) over one vertex array, with face neighbours
+/// linked across them (link_face_neighbours): each lane is in a cell of one
+/// part and steps with that part's kernel; a lane that leaves through a
+/// triangle shared with the other part goes on there. A boundary-layer mesh
+/// (prisms on a wall, tets beyond) marches as a whole instead of clipping
+/// every cell of both trees' leaves. Locating asks both trees and takes the
+/// nearer cell. The segments are each part's own, so the image is the
+/// two-part tree's up to rounding.
+template <class A> struct MixedMarch {
+  CellMarch<A, 4> tets;   ///< lanes with tets.cell >= 0 are in a tet
+  CellMarch<A, 8> hexes;  ///< lanes with hexes.cell >= 0 in a hexahedron; never both
+  vfloat<A> t;            ///< per lane: where the ray has got to (both parts' t)
+  vfloat<A> located_at = vfloat<A>(std::numeric_limits<float>::quiet_NaN());  ///< as CellMarch's
+
+  struct Step {
+    typename CellMarch<A, 4>::Step tet;
+    typename CellMarch<A, 8>::Step hex;
+    vmask<A> in_tet, in_hex;  ///< the lanes each part stepped
+  };
+
+  MixedMarch(TreeView const& tet_tree, TetMesh const& tm, TetNeighbours const& tn, TreeView const& hex_tree,
+             HexMesh const& hm, HexNeighbours const& hn, RayPacket<A> const& rays, ValueWindows const& w,
+             vfloat<A> const& t_start, vfloat<A> const& t_stop)
+      : tets(tet_tree, tm, tn, rays, w, t_start, t_stop), hexes(hex_tree, hm, hn, rays, w, t_start, t_stop), t(t_start) {}
+
+  vmask<A> has_cell() const { return tets.has_cell() || hexes.has_cell(); }
+
+  /// As CellMarch::locate, over both trees: the hexahedra's query only looks
+  /// for cells entered before the tet it found.
+  vmask<A> locate(vmask<A> const& need, Traversal how, int threshold) {
+    vmask<A> const stuck = need && t == located_at;
+    vmask<A> const ask = need && !stuck;
+    FirstCellQuery<A, 4> qt(tets.tree, tets.mesh, tets.r, tets.windows, t, tets.t_end);
+    traverse_query<A>(tets.tree, tets.r, ask, qt, how, threshold);
+    FirstCellQuery<A, 8> qh(hexes.tree, hexes.mesh, hexes.r, hexes.windows, t, simd::min(tets.t_end, qt.best_t));
+    traverse_query<A>(hexes.tree, hexes.r, ask, qh, how, threshold);
+    vmask<A> const found_tet = ask && simd::to_float_mask(qt.cell >= vint<A>(0));
+    vmask<A> const found_hex = ask && simd::to_float_mask(qh.cell >= vint<A>(0)) && (!found_tet || qh.best_t < qt.best_t);
+    vmask<A> const in_tet = found_tet && !found_hex;
+    tets.cell = simd::select(simd::to_int_mask(in_tet), qt.cell, simd::select(simd::to_int_mask(found_hex), vint<A>(-1), tets.cell));
+    hexes.cell = simd::select(simd::to_int_mask(found_hex), qh.cell, simd::select(simd::to_int_mask(in_tet), vint<A>(-1), hexes.cell));
+    vmaski<A> const found = simd::to_int_mask(in_tet || found_hex);
+    tets.faint = hexes.faint = simd::select(found, vint<A>(0), tets.faint);
+    located_at = simd::select(ask, t, located_at);
+    tets.last_valid = false;
+    return need && !(in_tet || found_hex);
+  }
+
+  /// One cell for each lane in `lanes` (all with a cell), with its part's
+  /// kernel (CellMarch::step); lanes that leave across a link go on in the
+  /// other part.
+  Step step(vmask<A> const& lanes, bool want_gradient) {
+    Step s;
+    s.in_tet = lanes && tets.has_cell();
+    s.in_hex = lanes && hexes.has_cell();
+    vint<A> const faint = tets.faint;
+    if (simd::any(s.in_tet)) s.tet = tets.step(s.in_tet, want_gradient);
+    else s.tet.visible = simd::no_lanes<A>();
+    if (simd::any(s.in_hex)) s.hex = hexes.step(s.in_hex, want_gradient);
+    else s.hex.visible = simd::no_lanes<A>();
+    // Each step moved t and counted faint cells for its own lanes only.
+    vmaski<A> const hi = simd::to_int_mask(s.in_hex), ti = simd::to_int_mask(s.in_tet);
+    t = simd::select(s.in_hex, hexes.t, tets.t);
+    tets.t = hexes.t = t;
+    tets.faint = hexes.faint = simd::select(hi, hexes.faint, simd::select(ti, tets.faint, faint));
+    // Links (<= -2) move a lane to the other part.
+    vint<A> const minus_two(-2);
+    vmaski<A> const to_hex = tets.cell <= minus_two, to_tet = hexes.cell <= minus_two;
+    vint<A> const next_hex = simd::select(to_hex, minus_two - tets.cell, simd::select(to_tet, vint<A>(-1), hexes.cell));
+    tets.cell = simd::select(to_tet, minus_two - hexes.cell, simd::select(to_hex, vint<A>(-1), tets.cell));
+    hexes.cell = next_hex;
+    if (simd::any(simd::to_float_mask(to_tet))) tets.last_valid = false;  // next_corners needs the lane's last tet
+    return s;
+  }
+};
 
 /// Occlusion (any hit, traverse/occlusion.hpp) of short rays that start in
 /// known cells (ambient-occlusion rays leave an isosurface hit in its hit
