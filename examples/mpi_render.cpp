@@ -206,6 +206,7 @@ struct Setup {
   Region region;
   MinMaxBvh tet_bvh, hex_bvh;
   TetNeighbours neighbours;
+  HexNeighbours hex_neighbours;
   VertexGradients tet_gradients, hex_gradients;
   Scene scene;  // empty when the region has no cells
   Camera cam;
@@ -569,7 +570,13 @@ void prepare_render(Options const& o, int rank, Setup& s) {
   // The region's own structures. Smooth normals: the region holds every
   // cell around its vertices (the halo), so its gradients are the whole mesh's.
   Region const& reg = s.region;
-  bool const march = o.mode == "dvr" && s.dp.mode == DvrMode::segments;
+  // DVR segments march through face neighbours, as cellray-render's: one
+  // type, or tets and hexahedra over one vertex array (a .pvtu's welded
+  // region), linked. A single file's subsets number their vertices per
+  // type: two such parts go through the trees.
+  bool const both = !reg.tets.empty() && !reg.hexes.empty();
+  bool const march = o.mode == "dvr" && s.dp.mode == DvrMode::segments &&
+                     (!both || reg.tets.positions() == reg.hexes.positions());
   if (!reg.tets.empty()) {
     s.tet_bvh = build_minmax_bvh(reg.tets);
     if (march) s.neighbours = build_tet_neighbours(reg.tets);
@@ -579,9 +586,12 @@ void prepare_render(Options const& o, int rank, Setup& s) {
   }
   if (!reg.hexes.empty()) {
     s.hex_bvh = build_minmax_bvh(reg.hexes);
+    if (march) s.hex_neighbours = build_hex_neighbours(reg.hexes);
     if (smooth) s.hex_gradients = build_vertex_gradients(reg.hexes);
-    s.scene.hexes.push_back({reg.hexes, &s.hex_bvh, nullptr, smooth ? &s.hex_gradients : nullptr});
+    s.scene.hexes.push_back({reg.hexes, &s.hex_bvh, nullptr, smooth ? &s.hex_gradients : nullptr,
+                             march ? &s.hex_neighbours : nullptr});
   }
+  if (march && both) link_face_neighbours(reg.tets, s.neighbours, reg.hexes, s.hex_neighbours);
   s.build_ms = ms_since(t0);
 }
 

@@ -381,8 +381,8 @@ void add_options(CLI::App& app, Options& o) {
                "cell through face neighbours (16 bytes per tet, 24 per hexahedron; the same image up to rounding; "
                "for comparisons)");
   app.add_flag("--march", o.march,
-               "DVR segments march through face neighbours: the default for tets and hexahedra (wedges, pyramids and a "
-               "mixed mesh's folded tets included); kept for scripts")
+               "DVR segments march through face neighbours: the default for tets and hexahedra (wedges and pyramids "
+               "included) and mixed meshes, folded or across their two parts; kept for scripts")
       ->excludes("--no-march");
   app.add_option("--fold-tets", o.fold_tets,
                  "A mesh of tets and hexahedra (wedges, pyramids): store its tets as collapsed hexahedra, one part "
@@ -575,8 +575,9 @@ void load(Options const& o, Loaded& l) {
   // Folded tets run the hexahedron kernels, so only a few pay. One thread,
   // 1024x768, folded against two parts: the flange (16% tets) iso
   // 0.96-1.1x, DVR through the trees 1.05x, marching 1.36x the speed;
-  // sphere_bl.geo's boundary-layer meshes (30-82% tets) iso 0.4-0.5x, DVR
-  // 0.5-0.75x, marching 0.99-1.1x (docs/cli.md).
+  // sphere_bl.geo's boundary-layer meshes (30-82% tets) iso 0.4-0.5x, and
+  // (2 threads) DVR 0.45-0.63x of two parts marching across each other
+  // (link_face_neighbours), where the flange folded is 1.17x (docs/cli.md).
   bool const few_tets = 4 * g.tet_count() <= g.hex_count();  // at most a fifth of the cells
   bool const fold = o.fold_tets == "always" || (o.fold_tets == "auto" && few_tets);
   if (!g.tets.empty() && !g.hexes.empty() && fold) l.tets_as_hexes = g.fold_tets_into_hexes();

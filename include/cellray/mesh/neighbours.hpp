@@ -23,6 +23,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 #include <tbb/task_arena.h>
 
 #include "../error.hpp"
@@ -601,7 +602,7 @@ inline void link_face_neighbours(TetMesh const& tets, TetNeighbours& tet_nb, Hex
   std::vector<Triangle> all;
   for (auto& f : found) all.insert(all.end(), f.begin(), f.end());
   found.clear();
-  std::sort(all.begin(), all.end());
+  tbb::parallel_sort(all.begin(), all.end());  // a total order: the same result on any thread count
   // A run of exactly one tet face and one hexahedron face is a link; a face
   // of one part alone is the boundary; more cells on one face: none is right.
   for (size_t i = 0; i < all.size();) {
