@@ -28,16 +28,6 @@
 #endif
 #endif
 
-/// For a loop that must stay a function of its own: inlined into its
-/// caller, GCC's inlining budget runs out for the kernels inside it.
-#ifndef CELLRAY_NOINLINE
-#if defined(__GNUC__)
-#define CELLRAY_NOINLINE __attribute__((noinline))
-#else
-#define CELLRAY_NOINLINE
-#endif
-#endif
-
 /// For rare paths inside hot kernels (a hex's triangular faces): kept out
 /// of line so that the common path's unrolled loop stays small.
 #ifndef CELLRAY_NOINLINE
