@@ -182,6 +182,34 @@ void run(Bytes& in, uint8_t flags, uint8_t tuning, uint64_t nv, uint64_t nc, flo
     check_image(cellray::render_iso(marched, cam, ip, ro), w, h);
     dp.mode = cellray::DvrMode::segments;
     check_image(cellray::render_dvr(marched, cam, dp, ro), w, h);
+  } else {
+    // A mixed scene over the same vertices: tets made of each cell's
+    // corners 0 1 3 4 (overlapping the hexahedra, sharing whatever
+    // triangles the input's repeated ids make), both parts' neighbours
+    // linked (link_face_neighbours), DVR segments marching across them.
+    std::vector<Index> tet_ids;
+    for (uint64_t c = 0; c < nc; ++c)
+      for (int k : {0, 1, 3, 4}) tet_ids.push_back(cells[c * N + uint64_t(k)]);
+    cellray::TetMesh const tets{cellray::view(xyz), cellray::view(tet_ids), cellray::view(values), "f"};
+    cellray::MinMaxBvh const tet_bvh = cellray::build_minmax_bvh(tets, bo);
+    cellray::TetNeighbours tn = cellray::build_tet_neighbours(tets);
+    cellray::HexNeighbours hn = cellray::build_hex_neighbours(mesh);
+    cellray::link_face_neighbours(tets, tn, mesh, hn);
+    for (uint64_t c = 0; c < nc; ++c) {
+      for (int f = 0; f < 4; ++f) {
+        int32_t const o = tn.across(c, f);
+        require(o != int32_t(c) && o < int32_t(nc) && o >= -1 - int32_t(nc), "linked tet neighbour out of range");
+      }
+      for (int f = 0; f < 6; ++f) {
+        int32_t const o = hn.across(c, f);
+        require(o != int32_t(c) && o < int32_t(nc) && o >= -1 - int32_t(nc), "linked hex neighbour out of range");
+      }
+    }
+    cellray::Scene mixed;
+    mixed.tets.push_back({tets, &tet_bvh, nullptr, &tn});
+    mixed.hexes.push_back({mesh, &bvh, nullptr, nullptr, &hn});
+    dp.mode = cellray::DvrMode::segments;
+    check_image(cellray::render_dvr(mixed, cam, dp, ro), w, h);
   }
 }
 
