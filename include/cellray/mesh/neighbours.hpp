@@ -219,7 +219,9 @@ template <class Id, class Src> void match_tet_faces(Src const* idx, uint64_t n, 
 ///   Two faces are shared when they have the same distinct vertices: a quad
 ///   with a quad, a triangle (a wedge's end, a pyramid's side) with a
 ///   triangle. A face with fewer than three distinct vertices is -1 (a
-///   collapsed face has no area: no ray leaves through it).
+///   collapsed face has no area: no ray leaves through it), and so are two
+///   faces of one cell over the same vertices (a cell folded flat): a cell
+///   is never its own neighbour.
 template <int N> class FaceNeighbours {
   static_assert(N == 4 || N == 8, "tets or hexahedra");
 
@@ -450,7 +452,7 @@ template <class Id, class Src> void match_hex_faces(Src const* idx, uint64_t n, 
         for (uint32_t i = 0; i < m;) {
           uint32_t j = i + 1;
           while (j < m && b[j].same_face(b[i])) ++j;
-          if (j - i == 2) {
+          if (j - i == 2 && b[i].slot / 6 != b[i + 1].slot / 6) {  // not one cell's face twice (folded flat)
             across[b[i].slot] = int32_t(b[i + 1].slot / 6);
             across[b[i + 1].slot] = int32_t(b[i].slot / 6);
           } else {
@@ -483,7 +485,8 @@ template <class Id, class Src> void match_hex_faces(Src const* idx, uint64_t n, 
       for (uint32_t i = 0; i < m; ++i) {
         uint32_t const head = group[i].head;
         uint32_t const other = i == head ? group[head].second : head;
-        across[b[i].slot] = group[head].count == 2 ? int32_t(b[other].slot / 6) : -1;
+        bool const pair = group[head].count == 2 && b[other].slot / 6 != b[i].slot / 6;
+        across[b[i].slot] = pair ? int32_t(b[other].slot / 6) : -1;
       }
     }
   });
