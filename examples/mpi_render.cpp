@@ -176,17 +176,23 @@ template <class F> int phase(int rank, int ranks, F&& f) { return agree(attempt(
 
 /// The rank's region, as a mesh of its own: the cells whose boxes overlap
 /// its k-d box (plus a halo for smooth normals), with compact vertices.
-/// From a single file every rank read whole, CellSubsets of it; from a
-/// .pvtu, the cells other ranks sent, their vertices welded (pvtu pieces
-/// repeat the points on their borders: equal position and value is one
-/// vertex, which restores face neighbours across pieces).
+/// From a single file every rank read whole, a subset of it (tets and
+/// hexahedra over one compact vertex array); from a .pvtu, the cells other
+/// ranks sent, their vertices welded (pvtu pieces repeat the points on
+/// their borders: equal position and value is one vertex, which restores
+/// face neighbours across pieces).
 struct Region {
   CellSubset<4> tet_sub;
   CellSubset<8> hex_sub;
+  MixedCellSubset mixed_sub;  // both types
   UnstructuredGrid received;
   TetMesh tets;
   HexMesh hexes;
-  uint64_t vertex_count() const { return tets.vertex_count() + (received.empty() ? hexes.vertex_count() : 0); }
+  bool march = false;  // DVR segments march through face neighbours
+  uint64_t vertex_count() const {
+    bool const shared = !tets.empty() && tets.positions() == hexes.positions();
+    return tets.vertex_count() + (shared ? 0 : hexes.vertex_count());
+  }
 };
 
 /// What every rank holds: its input (the whole mesh, or its pieces of a
@@ -457,6 +463,13 @@ int partition_and_exchange(Options const& o, int rank, int ranks, Setup& s) {
   Region& reg = s.region;
   if (!s.distributed) {
     code = phase(rank, ranks, [&] {
+      if (!s.tets.empty() && !s.hexes.empty()) {
+        reg.mixed_sub = subset_cells(s.tets, assign_cells(s.part, s.tet_boxes, s.halo)[size_t(rank)], s.hexes,
+                                     assign_cells(s.part, s.hex_boxes, s.halo)[size_t(rank)]);
+        reg.tets = reg.mixed_sub.tets();
+        reg.hexes = reg.mixed_sub.hexes();
+        return;
+      }
       if (!s.tets.empty()) {
         reg.tet_sub = subset_cells(s.tets, assign_cells(s.part, s.tet_boxes, s.halo)[size_t(rank)]);
         reg.tets = reg.tet_sub.mesh();
@@ -571,12 +584,12 @@ void prepare_render(Options const& o, int rank, Setup& s) {
   // cell around its vertices (the halo), so its gradients are the whole mesh's.
   Region const& reg = s.region;
   // DVR segments march through face neighbours, as cellray-render's: one
-  // type, or tets and hexahedra over one vertex array (a .pvtu's welded
-  // region), linked. A single file's subsets number their vertices per
-  // type: two such parts go through the trees.
+  // type, or tets and hexahedra over one vertex array (a single file's
+  // mixed subset, a .pvtu's welded region), linked.
   bool const both = !reg.tets.empty() && !reg.hexes.empty();
   bool const march = o.mode == "dvr" && s.dp.mode == DvrMode::segments &&
                      (!both || reg.tets.positions() == reg.hexes.positions());
+  s.region.march = march;
   if (!reg.tets.empty()) {
     s.tet_bvh = build_minmax_bvh(reg.tets);
     if (march) s.neighbours = build_tet_neighbours(reg.tets);
@@ -659,7 +672,7 @@ int run(Options const& o, int rank, int ranks) {
 
   if (o.stats) {
     double const total_ms = ms_since(t_start);
-    constexpr int n = 9;
+    constexpr int n = 10;
     double const mine[n] = {s.read_ms,
                             s.partition_ms,
                             s.exchange_ms,
@@ -668,7 +681,8 @@ int run(Options const& o, int rank, int ranks) {
                             composite_ms,
                             total_ms,
                             double(s.scene.cell_count()),
-                            double(s.region.vertex_count())};
+                            double(s.region.vertex_count()),
+                            s.region.march ? 1.0 : 0.0};
     std::vector<double> all(size_t(n * ranks));
     MPI_Gather(mine, n, MPI_DOUBLE, all.data(), n, MPI_DOUBLE, 0, MPI_COMM_WORLD);
     if (rank == 0)
@@ -676,8 +690,8 @@ int run(Options const& o, int rank, int ranks) {
         double const* m = &all[size_t(n * r)];
         std::printf("{\"rank\": %d, \"ranks\": %d, \"cells\": %.0f, \"vertices\": %.0f, \"read_ms\": %.1f, "
                     "\"partition_ms\": %.1f, \"exchange_ms\": %.1f, \"build_ms\": %.1f, \"render_ms\": %.1f, "
-                    "\"composite_ms\": %.1f, \"total_ms\": %.1f}\n",
-                    r, ranks, m[7], m[8], m[0], m[1], m[2], m[3], m[4], m[5], m[6]);
+                    "\"composite_ms\": %.1f, \"total_ms\": %.1f, \"march\": %s}\n",
+                    r, ranks, m[7], m[8], m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[9] != 0 ? "true" : "false");
       }
   }
   return exit_ok;

@@ -10,12 +10,14 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <random>
 #include <string>
 #include <vector>
 
 #include <cellray/cells/vertex_gradients.hpp>
+#include <cellray/io/read_mesh.hpp>
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/neighbours.hpp>
 #include <cellray/mesh/partition.hpp>
@@ -191,6 +193,91 @@ TEST_CASE("k-d partition: a subset owns compact copies of the vertices its cells
   }
   REQUIRE(total < 2 * m.vertex_count());
   REQUIRE_THROWS_AS(subset_cells(m, {m.cell_count()}), InvalidArgument);
+}
+
+namespace {
+/// Faces of `nb` linked to the other part of a mixed mesh (-2 - other cell).
+uint64_t linked_faces(int32_t const* across, uint64_t n) {
+  return uint64_t(std::count_if(across, across + n, [](int32_t v) { return v <= -2; }));
+}
+}  // namespace
+
+// cellray-mpi-render's region of a single mixed file: its tets and
+// hexahedra over one compact vertex array, so their neighbours link as the
+// whole mesh's do (a CellSubset per type numbers its vertices separately).
+TEST_CASE("k-d partition: a mixed subset keeps its tets and hexahedra over one vertex array", "[mesh][partition]") {
+  UnstructuredGrid const g = read_mesh(std::string(CELLRAY_TEST_DATA) + "/gmsh/sphere_bl_small.msh");
+  TetMesh const tets = g.tet_mesh();
+  HexMesh const hexes = g.hex_mesh();
+  REQUIRE(tets.cell_count() > 0);
+  REQUIRE(hexes.cell_count() > 0);
+  CellExtents const tb = cell_extents(tets), hb = cell_extents(hexes);
+  std::vector<glm::vec3> points = tb.centroid;
+  points.insert(points.end(), hb.centroid.begin(), hb.centroid.end());
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  for (glm::vec3 const& p : points) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  KdPartition const part = kd_tree(points, lo - 1.f, hi + 1.f, 3);
+  auto const tet_ids = assign_cells(part, tb, glm::vec3(0.f)), hex_ids = assign_cells(part, hb, glm::vec3(0.f));
+
+  TetNeighbours whole_tn = build_tet_neighbours(tets);
+  HexNeighbours whole_hn = build_hex_neighbours(hexes);
+  link_face_neighbours(tets, whole_tn, hexes, whole_hn);
+  REQUIRE(linked_faces(whole_tn.data(), 4 * tets.cell_count()) > 0);
+  uint64_t links = 0;
+  for (size_t r = 0; r < 3; ++r) {
+    INFO("region " << r);
+    MixedCellSubset const sub = subset_cells(tets, tet_ids[r], hexes, hex_ids[r]);
+    TetMesh const st = sub.tets();
+    HexMesh const sh = sub.hexes();
+    REQUIRE(st.cell_count() == tet_ids[r].size());
+    REQUIRE(sh.cell_count() == hex_ids[r].size());
+    REQUIRE(st.positions() == sh.positions());
+    REQUIRE(st.active_array() == tets.active_array());
+    std::vector<uint64_t> used;  // the parent vertices the region's cells name, each once
+    for (uint64_t c : tet_ids[r])
+      for (int j = 0; j < 4; ++j) used.push_back(tets.vertex(c, j));
+    for (uint64_t c : hex_ids[r])
+      for (int j = 0; j < 8; ++j) used.push_back(hexes.vertex(c, j));
+    std::sort(used.begin(), used.end());
+    used.erase(std::unique(used.begin(), used.end()), used.end());
+    REQUIRE(st.vertex_count() == used.size());
+    for (size_t i = 0; i < tet_ids[r].size(); ++i)
+      for (int j = 0; j < 4; ++j) {
+        uint64_t const v = st.vertex(i, j), pv = tets.vertex(tet_ids[r][i], j);
+        REQUIRE(sub.vertex_ids[v] == pv);
+        REQUIRE(st.position(v) == tets.position(pv));
+        REQUIRE(st.value(v) == tets.value(pv));
+      }
+    for (size_t i = 0; i < hex_ids[r].size(); ++i)
+      for (int j = 0; j < 8; ++j) {
+        uint64_t const v = sh.vertex(i, j), pv = hexes.vertex(hex_ids[r][i], j);
+        REQUIRE(sub.vertex_ids[v] == pv);
+        REQUIRE(sh.position(v) == hexes.position(pv));
+        REQUIRE(sh.value(v) == hexes.value(pv));
+      }
+    // Their faces link across the types as the whole mesh's do: the same
+    // face (a tet's face f is the one opposite its f-th smallest vertex id,
+    // so the face's number is the parent's opposite corner's rank there).
+    TetNeighbours tn = build_tet_neighbours(st);
+    HexNeighbours hn = build_hex_neighbours(sh);
+    link_face_neighbours(st, tn, sh, hn);
+    auto sorted_corners = [](TetMesh const& m, uint64_t c) {
+      std::array<uint64_t, 4> v{m.vertex(c, 0), m.vertex(c, 1), m.vertex(c, 2), m.vertex(c, 3)};
+      std::sort(v.begin(), v.end());
+      return v;
+    };
+    for (uint64_t i = 0; i < st.cell_count(); ++i)
+      for (int f = 0; f < 4; ++f)
+        if (int32_t const a = tn.across(i, f); a <= -2) {
+          ++links;
+          uint64_t const pc = tet_ids[r][i], opposite = sub.vertex_ids[sorted_corners(st, i)[size_t(f)]];
+          auto const pv = sorted_corners(tets, pc);
+          int const pf = int(std::find(pv.begin(), pv.end(), opposite) - pv.begin());
+          REQUIRE(whole_tn.across(pc, pf) == -2 - int32_t(hex_ids[r][uint64_t(-2 - a)]));
+        }
+  }
+  CHECK(links > 0);
+  CHECK_THROWS_AS(subset_cells(tets, tet_ids[0], HexMesh(), {}), InvalidArgument);
 }
 
 TEST_CASE("k-d partition: front_to_back is a visibility order along rays from the eye", "[mesh][partition]") {

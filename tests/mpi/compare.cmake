@@ -5,6 +5,8 @@
 # With PIECES and SPLIT_PVTU: the mesh (the first of FLAGS) is split into
 # PIECES .vtu files under OUT and cellray-mpi-render reads their .pvtu
 # instead, while cellray-render reads the original file.
+# With EXPECT_OUT / REFUSE_OUT: cellray-mpi-render's stdout (add --stats to
+# FLAGS) must / must not match that regex.
 file(MAKE_DIRECTORY ${OUT})
 set(single ${OUT}/single.png)
 set(multi ${OUT}/mpi_np${NP}.png)
@@ -27,6 +29,12 @@ execute_process(COMMAND ${MPIEXEC} ${MPI_FLAGS} -np ${NP} ${MPI_RENDER} ${mpi_ar
   RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 240)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "mpirun -np ${NP} cellray-mpi-render failed (${rc}): ${out} ${err}")
+endif()
+if(EXPECT_OUT AND NOT out MATCHES "${EXPECT_OUT}")
+  message(FATAL_ERROR "cellray-mpi-render's output does not match '${EXPECT_OUT}': ${out}")
+endif()
+if(REFUSE_OUT AND out MATCHES "${REFUSE_OUT}")
+  message(FATAL_ERROR "cellray-mpi-render's output matches '${REFUSE_OUT}': ${out}")
 endif()
 execute_process(COMMAND ${PNG_RMSE} ${single} ${multi} ${MAX_RMSE} ${MAX_DIFF} RESULT_VARIABLE rc OUTPUT_VARIABLE out)
 message(STATUS "${out}")

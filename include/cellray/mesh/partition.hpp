@@ -298,71 +298,154 @@ template <int N> KdPartition partition_kd(CellMesh<N> const& mesh, int k, glm::v
   return part;
 }
 
+/// The vertex arrays of a subset (CellSubset, MixedCellSubset): compact
+/// copies of the parent's vertices its cells use, in order of first use,
+/// and every point array at them. Vertex j is vertex `vertex_ids[j]` of the
+/// parent.
+struct SubsetVertices {
+  std::vector<float> xyz;
+  std::vector<std::string> names;           ///< the parent's point arrays, in order
+  std::vector<std::vector<float>> values;   ///< one per name, per subset vertex
+  std::string active;                       ///< the parent's active array
+  std::vector<uint64_t> vertex_ids;
+
+  uint64_t memory_bytes() const noexcept {
+    uint64_t b = xyz.size() * 4 + vertex_ids.size() * 8;
+    for (auto const& v : values) b += v.size() * 4;
+    return b;
+  }
+
+ protected:
+  /// A view of cells `idx32` or `idx64` over these vertices, the parent's
+  /// array active.
+  template <int N> CellMesh<N> view_cells(std::vector<uint32_t> const& idx32, std::vector<uint64_t> const& idx64) const {
+    CellMesh<N> m = idx64.empty() ? CellMesh<N>(view(xyz), view(idx32)) : CellMesh<N>(view(xyz), view(idx64));
+    for (size_t a = 0; a < names.size(); ++a) m.add_array(names[a], view(values[a]));
+    return active.empty() ? m : m.with_array(active);
+  }
+};
+
 /// The cells `ids` of `mesh` as a mesh of their own, owning compact copies
 /// of what they use: the vertices their cells name (in order of first use),
 /// every point array at those vertices, and 32-bit indices (64-bit only past
 /// 2^32 - 1 vertices). Cell i of `mesh()` is cell ids[i] of `mesh`; vertex j
 /// is vertex `vertex_ids[j]` of `mesh`. A region's BVH, neighbours and
 /// gradients then cost what the region holds, not what the whole mesh does.
-template <int N> struct CellSubset {
-  std::vector<float> xyz;
-  std::vector<std::string> names;           ///< the parent's point arrays, in order
-  std::vector<std::vector<float>> values;   ///< one per name, per subset vertex
-  std::string active;                       ///< the parent's active array
+template <int N> struct CellSubset : SubsetVertices {
   std::vector<uint32_t> idx32;
   std::vector<uint64_t> idx64;
-  std::vector<uint64_t> vertex_ids;
 
   /// The view over the subset's own arrays, the parent's array active.
-  CellMesh<N> mesh() const {
-    CellMesh<N> m = idx64.empty() ? CellMesh<N>(view(xyz), view(idx32)) : CellMesh<N>(view(xyz), view(idx64));
-    for (size_t a = 0; a < names.size(); ++a) m.add_array(names[a], view(values[a]));
-    return active.empty() ? m : m.with_array(active);
-  }
+  CellMesh<N> mesh() const { return view_cells<N>(idx32, idx64); }
   uint64_t memory_bytes() const noexcept {
-    uint64_t b = (xyz.size() + idx32.size()) * 4 + (idx64.size() + vertex_ids.size()) * 8;
-    for (auto const& v : values) b += v.size() * 4;
-    return b;
+    return SubsetVertices::memory_bytes() + idx32.size() * 4 + idx64.size() * 8;
   }
 };
+
+/// The tets `tet_ids` and hexahedra `hex_ids` of a mixed mesh's two views
+/// over one vertex array, as CellSubset makes them, over one compact vertex
+/// array for both: the subset's two views share their vertices as the
+/// parent's do, so their face neighbours can be linked
+/// (link_face_neighbours) and DVR marches across them.
+struct MixedCellSubset : SubsetVertices {
+  std::vector<uint32_t> tet_idx32, hex_idx32;
+  std::vector<uint64_t> tet_idx64, hex_idx64;
+
+  TetMesh tets() const { return view_cells<4>(tet_idx32, tet_idx64); }
+  HexMesh hexes() const { return view_cells<8>(hex_idx32, hex_idx64); }
+  uint64_t memory_bytes() const noexcept {
+    return SubsetVertices::memory_bytes() + (tet_idx32.size() + hex_idx32.size()) * 4 +
+           (tet_idx64.size() + hex_idx64.size()) * 8;
+  }
+};
+
+namespace detail {
+
+/// Parent vertex -> subset vertex, over every part of one subset: a hash
+/// map costs what the subset holds (a dense table would cost 4 bytes per
+/// parent vertex on every rank).
+class SubsetBuilder {
+ public:
+  explicit SubsetBuilder(SubsetVertices& out) : out_(out) {}
+
+  /// The subset's corners of cells `ids` of `mesh`, its vertices added.
+  template <int N> std::vector<uint64_t> corners(CellMesh<N> const& mesh, std::vector<uint64_t> const& ids) {
+    uint64_t const n = mesh.cell_count(), nv = mesh.vertex_count();
+    for (uint64_t c : ids)
+      if (c >= n)
+        throw InvalidArgument("subset_cells: cell id " + std::to_string(c) + " past the mesh's " + std::to_string(n) +
+                              " cells");
+    local_.reserve(local_.size() + ids.size() * (N == 4 ? 1 : 2));
+    std::vector<uint64_t> corners(ids.size() * N);
+    for (size_t i = 0; i < ids.size(); ++i)
+      for (int j = 0; j < N; ++j) {
+        uint64_t const v = mesh.vertex(ids[i], j);
+        if (v >= nv)
+          throw InvalidMesh("subset_cells: cell " + std::to_string(ids[i]) + " names vertex " + std::to_string(v) +
+                            " past the mesh's " + std::to_string(nv) + " vertices");
+        auto const [it, added] = local_.try_emplace(v, out_.vertex_ids.size());
+        if (added) out_.vertex_ids.push_back(v);
+        corners[i * N + size_t(j)] = it->second;
+      }
+    return corners;
+  }
+
+  /// Indices as 32-bit unless the subset's vertices need 64.
+  void store(std::vector<uint64_t>&& corners, std::vector<uint32_t>& idx32, std::vector<uint64_t>& idx64) const {
+    if (out_.vertex_ids.size() <= std::numeric_limits<uint32_t>::max()) idx32.assign(corners.begin(), corners.end());
+    else idx64 = std::move(corners);
+  }
+
+  /// Positions and point arrays of the subset's vertices from `mesh`.
+  template <int N> void copy_vertices(CellMesh<N> const& mesh) {
+    std::vector<uint64_t> const& ids = out_.vertex_ids;
+    out_.xyz.resize(ids.size() * 3);
+    for (size_t j = 0; j < ids.size(); ++j) {
+      glm::vec3 const p = mesh.position(ids[j]);
+      out_.xyz[3 * j] = p.x, out_.xyz[3 * j + 1] = p.y, out_.xyz[3 * j + 2] = p.z;
+    }
+    for (ScalarArray const& a : mesh.arrays()) {
+      out_.names.push_back(a.name);
+      std::vector<float>& v = out_.values.emplace_back(ids.size());
+      for (size_t j = 0; j < ids.size(); ++j) v[j] = a.values.data[ids[j]];
+    }
+    out_.active = std::string(mesh.active_array());
+  }
+
+ private:
+  SubsetVertices& out_;
+  std::unordered_map<uint64_t, uint64_t> local_;
+};
+
+}  // namespace detail
 
 /// @throws InvalidArgument for an id past the mesh's cells; InvalidMesh
 ///         for a vertex id past the mesh's vertices (naming the cell).
 template <int N> CellSubset<N> subset_cells(CellMesh<N> const& mesh, std::vector<uint64_t> const& ids) {
   CellSubset<N> s;
-  uint64_t const n = mesh.cell_count(), nv = mesh.vertex_count();
-  for (uint64_t c : ids)
-    if (c >= n)
-      throw InvalidArgument("subset_cells: cell id " + std::to_string(c) + " past the mesh's " + std::to_string(n) +
-                            " cells");
-  // Parent vertex -> subset vertex: a hash map costs what the subset holds
-  // (a dense table would cost 4 bytes per parent vertex on every rank).
-  std::unordered_map<uint64_t, uint64_t> local;
-  local.reserve(ids.size() * (N == 4 ? 1 : 2));
-  std::vector<uint64_t> corners(ids.size() * N);
-  for (size_t i = 0; i < ids.size(); ++i)
-    for (int j = 0; j < N; ++j) {
-      uint64_t const v = mesh.vertex(ids[i], j);
-      if (v >= nv)
-        throw InvalidMesh("subset_cells: cell " + std::to_string(ids[i]) + " names vertex " + std::to_string(v) +
-                          " past the mesh's " + std::to_string(nv) + " vertices");
-      auto const [it, added] = local.try_emplace(v, s.vertex_ids.size());
-      if (added) s.vertex_ids.push_back(v);
-      corners[i * N + size_t(j)] = it->second;
-    }
-  if (s.vertex_ids.size() <= std::numeric_limits<uint32_t>::max()) s.idx32.assign(corners.begin(), corners.end());
-  else s.idx64 = std::move(corners);
-  s.xyz.resize(s.vertex_ids.size() * 3);
-  for (size_t j = 0; j < s.vertex_ids.size(); ++j) {
-    glm::vec3 const p = mesh.position(s.vertex_ids[j]);
-    s.xyz[3 * j] = p.x, s.xyz[3 * j + 1] = p.y, s.xyz[3 * j + 2] = p.z;
-  }
-  for (ScalarArray const& a : mesh.arrays()) {
-    s.names.push_back(a.name);
-    std::vector<float>& v = s.values.emplace_back(s.vertex_ids.size());
-    for (size_t j = 0; j < s.vertex_ids.size(); ++j) v[j] = a.values.data[s.vertex_ids[j]];
-  }
-  s.active = std::string(mesh.active_array());
+  detail::SubsetBuilder b(s);
+  b.store(b.corners(mesh, ids), s.idx32, s.idx64);
+  b.copy_vertices(mesh);
+  return s;
+}
+
+/// The mixed subset of `tets` and `hexes`, which must view one vertex
+/// array (a mixed mesh's two parts, as UnstructuredGrid::tet_mesh and
+/// hex_mesh give them) with the same point arrays; the tets' active array
+/// is active. Either list may be empty.
+/// @throws InvalidArgument for parts over different vertex arrays and as
+///         subset_cells.
+inline MixedCellSubset subset_cells(TetMesh const& tets, std::vector<uint64_t> const& tet_ids, HexMesh const& hexes,
+                                    std::vector<uint64_t> const& hex_ids) {
+  if (tets.positions() != hexes.positions() || tets.vertex_count() != hexes.vertex_count())
+    throw InvalidArgument("subset_cells: the tets and hexahedra do not view one vertex array");
+  MixedCellSubset s;
+  detail::SubsetBuilder b(s);
+  // Each part's ids are 32-bit when they fit when it is stored: the tets'
+  // stay valid if the hexahedra's vertices pass 2^32 - 1.
+  b.store(b.corners(tets, tet_ids), s.tet_idx32, s.tet_idx64);
+  b.store(b.corners(hexes, hex_ids), s.hex_idx32, s.hex_idx64);
+  b.copy_vertices(tets);
   return s;
 }
 
