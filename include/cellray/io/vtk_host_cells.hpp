@@ -157,8 +157,7 @@ inline SplitCells split_result(UnstructuredGrid& grid, CellKinds const& kinds, u
 template <class Point>
 SplitCells split_host_polyhedra(UnstructuredGrid& grid, CellKinds const& kinds, Span<Point> points,
                                 uint64_t point_count, NumArray const& faces, PolyPlan const& plan, bool whole) {
-  grid.xyz.assign(points.begin(), points.end());
-  grid.xyz.reserve(3 * (point_count + plan.polys.size()));
+  grid.xyz.assign(points.begin(), points.end());  // into reserve_split's room
   if (PolySplitError const e = split_polyhedra(grid, faces, plan, {}, whole)) {
     if (e.too_many) throw InvalidMesh("split_vtk_cells: the polyhedra's centre points pass 2^32 - 1 points");
     throw InvalidMesh(host_cell(plan.polys[e.at].cell) + "polyhedron cell " + std::to_string(plan.polys[e.at].cell) +
@@ -167,6 +166,19 @@ SplitCells split_host_polyhedra(UnstructuredGrid& grid, CellKinds const& kinds, 
   std::vector<uint64_t> cells(plan.polys.size());
   for (size_t k = 0; k < cells.size(); ++k) cells[k] = plan.polys[k].cell;
   return split_result(grid, kinds, point_count, std::move(cells));
+}
+
+/// Reserves `grid`'s arrays for the host's cells and what the polyhedra of
+/// `plan` add (at most), before any is stored: growing them after the
+/// host's cells copied them and faulted in fresh pages (half of the
+/// flange's split).
+inline void reserve_split(UnstructuredGrid& grid, NumArray const& types, NumArray const& faces, PolyPlan& plan,
+                          uint64_t point_count) {
+  count_polyhedron_cells(faces, plan);
+  FileCellCounts const n = count_file_cells(types);
+  grid.tets.reserve(4 * (n.tets + plan.new_tets()));
+  grid.hexes.reserve(8 * (n.hexes + plan.new_hexes()));
+  grid.xyz.reserve(3 * (point_count + plan.polys.size()));
 }
 
 template <class Point> void check_points(Span<Point> points, uint64_t point_count) {
@@ -215,18 +227,20 @@ SplitCells split_vtk_cells(Span<Type> types, Span<Offset> offsets, Span<Id> conn
   if (faces.locations.size != types.size)
     throw InvalidMesh("split_vtk_cells: " + std::to_string(types.size) + " cells need as many face locations, got " +
                       std::to_string(faces.locations.size));
-  UnstructuredGrid grid;
-  io::CellKinds const kinds = io::split_host_cells(types, offsets, connectivity, point_count, opts, true, grid);
   io::PolyPlan plan;
-  for (uint64_t c = 0; c < kinds.size(); ++c) {
-    if (kinds[c] != 3) continue;
+  for (uint64_t c = 0; c < types.size; ++c) {
+    if (int64_t(types[c]) != vtk_polyhedron) continue;
     int64_t const at = int64_t(faces.locations[c]);
     if (at < 0 || uint64_t(at) >= faces.faces.size)
       throw InvalidMesh(io::host_cell(c) + "polyhedron cell " + std::to_string(c) + " has face location " +
                         std::to_string(at) + " outside the " + std::to_string(faces.faces.size) + " face entries");
     plan.polys.push_back({c, uint64_t(at), faces.faces.size});
   }
-  return io::split_host_polyhedra(grid, kinds, points, point_count, io::viewing_span(faces.faces), plan, false);
+  io::NumArray const all = io::viewing_span(faces.faces);
+  UnstructuredGrid grid;
+  io::reserve_split(grid, io::viewing_span(types), all, plan, point_count);
+  io::CellKinds const kinds = io::split_host_cells(types, offsets, connectivity, point_count, opts, true, grid);
+  return io::split_host_polyhedra(grid, kinds, points, point_count, all, plan, false);
 }
 
 /// As above, faces in VTK 9.4's layout (FaceCellArrays).
@@ -242,14 +256,12 @@ SplitCells split_vtk_cells(Span<Type> types, Span<Offset> offsets, Span<Id> conn
                       std::to_string(types.size + 1) + " cell face offsets, got " +
                       std::to_string(faces.cell_face_offsets.size));
   uint64_t const nfaces = faces.face_offsets.size ? faces.face_offsets.size - 1 : 0;
-  UnstructuredGrid grid;
-  io::CellKinds const kinds = io::split_host_cells(types, offsets, connectivity, point_count, opts, true, grid);
   // Each polyhedron's faces as one stream of VTK 9.0's layout (transient),
   // so that both layouts are checked and split by the same code.
   std::vector<int64_t> stream;
   io::PolyPlan plan;
-  for (uint64_t c = 0; c < kinds.size(); ++c) {
-    if (kinds[c] != 3) continue;
+  for (uint64_t c = 0; c < types.size; ++c) {
+    if (int64_t(types[c]) != vtk_polyhedron) continue;
     int64_t const b = int64_t(faces.cell_face_offsets[c]), e = int64_t(faces.cell_face_offsets[c + 1]);
     if (b < 0 || e < b || uint64_t(e) > faces.cell_faces.size)
       throw InvalidMesh(io::host_cell(c) + "polyhedron cell " + std::to_string(c) + ": cell face offsets [" +
@@ -271,6 +283,9 @@ SplitCells split_vtk_cells(Span<Type> types, Span<Offset> offsets, Span<Id> conn
     plan.polys.push_back({c, begin, stream.size()});
   }
   io::NumArray const all = io::viewing_span(Span<int64_t>(stream));
+  UnstructuredGrid grid;
+  io::reserve_split(grid, io::viewing_span(types), all, plan, point_count);
+  io::CellKinds const kinds = io::split_host_cells(types, offsets, connectivity, point_count, opts, true, grid);
   return io::split_host_polyhedra(grid, kinds, points, point_count, all, plan, true);
 }
 
