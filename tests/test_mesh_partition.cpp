@@ -241,20 +241,17 @@ TEST_CASE("k-d partition: a mixed subset keeps its tets and hexahedra over one v
     std::sort(used.begin(), used.end());
     used.erase(std::unique(used.begin(), used.end()), used.end());
     REQUIRE(st.vertex_count() == used.size());
-    for (size_t i = 0; i < tet_ids[r].size(); ++i)
-      for (int j = 0; j < 4; ++j) {
-        uint64_t const v = st.vertex(i, j), pv = tets.vertex(tet_ids[r][i], j);
-        REQUIRE(sub.vertex_ids[v] == pv);
-        REQUIRE(st.position(v) == tets.position(pv));
-        REQUIRE(st.value(v) == tets.value(pv));
-      }
-    for (size_t i = 0; i < hex_ids[r].size(); ++i)
-      for (int j = 0; j < 8; ++j) {
-        uint64_t const v = sh.vertex(i, j), pv = hexes.vertex(hex_ids[r][i], j);
-        REQUIRE(sub.vertex_ids[v] == pv);
-        REQUIRE(sh.position(v) == hexes.position(pv));
-        REQUIRE(sh.value(v) == hexes.value(pv));
-      }
+    auto same_corners = [&](auto const& part, auto const& parent, std::vector<uint64_t> const& ids) {
+      for (size_t i = 0; i < ids.size(); ++i)
+        for (int j = 0; j < parent.corners; ++j) {
+          uint64_t const v = part.vertex(i, j), pv = parent.vertex(ids[i], j);
+          REQUIRE(sub.vertex_ids[v] == pv);
+          REQUIRE(part.position(v) == parent.position(pv));
+          REQUIRE(part.value(v) == parent.value(pv));
+        }
+    };
+    same_corners(st, tets, tet_ids[r]);
+    same_corners(sh, hexes, hex_ids[r]);
     // Their faces link across the types as the whole mesh's do: the same
     // face (a tet's face f is the one opposite its f-th smallest vertex id,
     // so the face's number is the parent's opposite corner's rank there).
