@@ -65,7 +65,6 @@ template <class T> NumArray viewing_span(Span<T> s) {
 }
 }  // namespace io
 
-
 /// The faces of a host's polyhedra as VTK 9.0-9.3 hold them
 /// (vtkUnstructuredGrid::GetFaces / GetFaceLocations; a .vtu's `faces`
 /// stream): cell c's face stream `[nfaces, n0, ids..., n1, ids..., ...]`
@@ -160,7 +159,7 @@ SplitCells split_host_polyhedra(UnstructuredGrid& grid, CellKinds const& kinds, 
   grid.xyz.assign(points.begin(), points.end());  // into reserve_split's room
   if (PolySplitError const e = split_polyhedra(grid, faces, plan, {}, whole)) {
     if (e.too_many) throw InvalidMesh("split_vtk_cells: the polyhedra's centre points pass 2^32 - 1 points");
-    throw InvalidMesh(host_cell(plan.polys[e.at].cell) + "polyhedron cell " + std::to_string(plan.polys[e.at].cell) +
+    throw InvalidMesh("split_vtk_cells: polyhedron cell " + std::to_string(plan.polys[e.at].cell) +
                       e.what);
   }
   std::vector<uint64_t> cells(plan.polys.size());
@@ -232,7 +231,7 @@ SplitCells split_vtk_cells(Span<Type> types, Span<Offset> offsets, Span<Id> conn
     if (int64_t(types[c]) != vtk_polyhedron) continue;
     int64_t const at = int64_t(faces.locations[c]);
     if (at < 0 || uint64_t(at) >= faces.faces.size)
-      throw InvalidMesh(io::host_cell(c) + "polyhedron cell " + std::to_string(c) + " has face location " +
+      throw InvalidMesh("split_vtk_cells: polyhedron cell " + std::to_string(c) + " has face location " +
                         std::to_string(at) + " outside the " + std::to_string(faces.faces.size) + " face entries");
     plan.polys.push_back({c, uint64_t(at), faces.faces.size});
   }
@@ -264,7 +263,7 @@ SplitCells split_vtk_cells(Span<Type> types, Span<Offset> offsets, Span<Id> conn
     if (int64_t(types[c]) != vtk_polyhedron) continue;
     int64_t const b = int64_t(faces.cell_face_offsets[c]), e = int64_t(faces.cell_face_offsets[c + 1]);
     if (b < 0 || e < b || uint64_t(e) > faces.cell_faces.size)
-      throw InvalidMesh(io::host_cell(c) + "polyhedron cell " + std::to_string(c) + ": cell face offsets [" +
+      throw InvalidMesh("split_vtk_cells: polyhedron cell " + std::to_string(c) + ": cell face offsets [" +
                         std::to_string(b) + ", " + std::to_string(e) + ") do not lie in the " +
                         std::to_string(faces.cell_faces.size) + " cell faces");
     uint64_t const begin = stream.size();
@@ -274,7 +273,7 @@ SplitCells split_vtk_cells(Span<Type> types, Span<Offset> offsets, Span<Id> conn
       int64_t const fb = f >= 0 && uint64_t(f) < nfaces ? int64_t(faces.face_offsets[uint64_t(f)]) : -1;
       int64_t const fe = fb >= 0 ? int64_t(faces.face_offsets[uint64_t(f) + 1]) : -1;
       if (fb < 0 || fe < fb || uint64_t(fe) > faces.face_points.size)
-        throw InvalidMesh(io::host_cell(c) + "polyhedron cell " + std::to_string(c) + " names face " +
+        throw InvalidMesh("split_vtk_cells: polyhedron cell " + std::to_string(c) + " names face " +
                           std::to_string(f) + ", which is not one of the " + std::to_string(nfaces) +
                           " faces or whose offsets do not lie in the face points");
       stream.push_back(fe - fb);
