@@ -189,9 +189,8 @@ struct Region {
   TetMesh tets;
   HexMesh hexes;
   bool march = false;  // DVR segments march through face neighbours
-  uint64_t vertex_count() const {
-    bool const shared = !tets.empty() && tets.positions() == hexes.positions();
-    return tets.vertex_count() + (shared ? 0 : hexes.vertex_count());
+  uint64_t vertex_count() const {  // views of one vertex array count it once
+    return tets.vertex_count() + (tets.positions() == hexes.positions() ? 0 : hexes.vertex_count());
   }
 };
 
