@@ -153,8 +153,7 @@ inline SplitCells split_result(UnstructuredGrid& grid, CellKinds const& kinds, u
 /// Splits the polyhedra of `kinds` (kind 3), whose face streams `plan`
 /// locates in `faces`, around centres appended to a copy of the host's
 /// points (transient: 12 bytes per point).
-template <class Point>
-SplitCells split_host_polyhedra(UnstructuredGrid& grid, CellKinds const& kinds, Span<Point> points,
+inline SplitCells split_host_polyhedra(UnstructuredGrid& grid, CellKinds const& kinds, Span<float> points,
                                 uint64_t point_count, NumArray const& faces, PolyPlan const& plan, bool whole) {
   grid.xyz.assign(points.begin(), points.end());  // into reserve_split's room
   if (PolySplitError const e = split_polyhedra(grid, faces, plan, {}, whole)) {
@@ -168,9 +167,9 @@ SplitCells split_host_polyhedra(UnstructuredGrid& grid, CellKinds const& kinds, 
 }
 
 /// Reserves `grid`'s arrays for the host's cells and what the polyhedra of
-/// `plan` add (at most), before any is stored: growing them after the
-/// host's cells copied them and faulted in fresh pages (half of the
-/// flange's split).
+/// `plan` add (at most), before any is stored, so that the split appends
+/// without copying them (on the flange no faster: the time is the split's
+/// own work and the output's first-write faults).
 inline void reserve_split(UnstructuredGrid& grid, NumArray const& types, NumArray const& faces, PolyPlan& plan,
                           uint64_t point_count) {
   count_polyhedron_cells(faces, plan);
@@ -180,11 +179,10 @@ inline void reserve_split(UnstructuredGrid& grid, NumArray const& types, NumArra
   grid.xyz.reserve(3 * (point_count + plan.polys.size()));
 }
 
-template <class Point> void check_points(Span<Point> points, uint64_t point_count) {
-  static_assert(std::is_same_v<Point, float>, "points as 3 floats each (the views read float positions)");
-  if (points.size != 3 * point_count)
-    throw InvalidMesh("split_vtk_cells: " + std::to_string(point_count) + " points need " +
-                      std::to_string(3 * point_count) + " coordinates, got " + std::to_string(points.size));
+inline void check_points(Span<float> points) {
+  if (points.size % 3 != 0)
+    throw InvalidMesh("split_vtk_cells: " + std::to_string(points.size) +
+                      " coordinates are not 3 per point (x, y, z floats)");
 }
 
 }  // namespace io
@@ -218,11 +216,11 @@ SplitCells split_vtk_cells(Span<Type> types, Span<Offset> offsets, Span<Id> conn
 ///         outside the faces, a stream that ends early, a face of fewer than
 ///         3 points, a point id out of range, faces that do not close
 ///         (every edge used by exactly two faces), naming the cell.
-template <class Type, class Offset, class Id, class Point, class Location, class FaceId>
-SplitCells split_vtk_cells(Span<Type> types, Span<Offset> offsets, Span<Id> connectivity, Span<Point> points,
+template <class Type, class Offset, class Id, class Location, class FaceId>
+SplitCells split_vtk_cells(Span<Type> types, Span<Offset> offsets, Span<Id> connectivity, Span<float> points,
                            FaceStreams<Location, FaceId> const& faces, ReadOptions const& opts = {}) {
+  io::check_points(points);
   uint64_t const point_count = points.size / 3;
-  io::check_points(points, point_count);
   if (faces.locations.size != types.size)
     throw InvalidMesh("split_vtk_cells: " + std::to_string(types.size) + " cells need as many face locations, got " +
                       std::to_string(faces.locations.size));
@@ -243,13 +241,12 @@ SplitCells split_vtk_cells(Span<Type> types, Span<Offset> offsets, Span<Id> conn
 }
 
 /// As above, faces in VTK 9.4's layout (FaceCellArrays).
-template <class Type, class Offset, class Id, class Point, class FaceOffset, class FacePoint, class CellFaceOffset,
-          class CellFace>
-SplitCells split_vtk_cells(Span<Type> types, Span<Offset> offsets, Span<Id> connectivity, Span<Point> points,
+template <class Type, class Offset, class Id, class FaceOffset, class FacePoint, class CellFaceOffset, class CellFace>
+SplitCells split_vtk_cells(Span<Type> types, Span<Offset> offsets, Span<Id> connectivity, Span<float> points,
                            FaceCellArrays<FaceOffset, FacePoint, CellFaceOffset, CellFace> const& faces,
                            ReadOptions const& opts = {}) {
+  io::check_points(points);
   uint64_t const point_count = points.size / 3;
-  io::check_points(points, point_count);
   if (faces.cell_face_offsets.size != types.size + 1)
     throw InvalidMesh("split_vtk_cells: " + std::to_string(types.size) + " cells need " +
                       std::to_string(types.size + 1) + " cell face offsets, got " +
