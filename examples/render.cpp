@@ -36,6 +36,7 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/task_arena.h>
+#include <tbb/task_group.h>
 
 #include <cellray/bvh/bvh.hpp>
 #include <cellray/error.hpp>
@@ -903,12 +904,33 @@ int run(Options const& o) {
     check_part(l.hexes, o, "hexahedra", vlo, vhi);
     validate_ms = ph.finish();
   }
+  // Smooth isosurface normals: per-vertex gradients of the rendered array.
+  // Without a time step that is the build's array, and they are computed
+  // on a task of their own while the BVH builds: one serial pass beside a
+  // build that leaves a core idle in its less parallel stretches
+  // (component8 iso, fresh processes: 12-17 ms less from start to image).
+  // The face neighbours gained nothing there: they are parallel throughout.
+  std::string const normals = o.central_normals ? "central" : o.normals;
+  bool const smooth = o.mode == "iso" && normals == "smooth";
+  VertexGradients tet_gradients, hex_gradients;
+  double gradients_ms = 0;
+  auto build_gradients = [&] {
+    auto const t0 = Clock::now();
+    if (!l.tets.empty()) tet_gradients = build_vertex_gradients(l.tets);
+    if (!l.hexes.empty()) hex_gradients = build_vertex_gradients(l.hexes);
+    gradients_ms = ms_since(t0);
+  };
+  bool const gradients_beside_build = smooth && o.time_step < 0;
   MinMaxBvh tet_bvh, hex_bvh;
   double build_ms = 0;
   {
-    Phase ph(progress, "building the BVH over " + std::to_string(l.cells()) + " cells");
+    Phase ph(progress, "building the BVH over " + std::to_string(l.cells()) + " cells" +
+                           (gradients_beside_build ? " and vertex gradients" : ""));
+    tbb::task_group beside;
+    if (gradients_beside_build) beside.run(build_gradients);
     if (!l.tets.empty()) tet_bvh = build_minmax_bvh(l.tets, bo);
     if (!l.hexes.empty()) hex_bvh = build_minmax_bvh(l.hexes, bo);
+    beside.wait();
     build_ms = ph.finish();
   }
   if (o.verbose) {
@@ -977,16 +999,10 @@ int run(Options const& o) {
     hex_neighbours = build_hex_neighbours(l.hexes);
     neighbours_ms = ph.finish();
   }
-  // Smooth isosurface normals: per-vertex gradients of the rendered array.
-  std::string const normals = o.central_normals ? "central" : o.normals;
-  VertexGradients tet_gradients, hex_gradients;
-  double gradients_ms = 0;
-  bool const smooth = o.mode == "iso" && normals == "smooth";
-  if (smooth) {
+  if (smooth && !gradients_beside_build) {  // a time step's array
     Phase ph(progress, "vertex gradients of '" + shown(array) + "'");
-    if (!l.tets.empty()) tet_gradients = build_vertex_gradients(l.tets);
-    if (!l.hexes.empty()) hex_gradients = build_vertex_gradients(l.hexes);
-    gradients_ms = ph.finish();
+    build_gradients();
+    ph.finish();
   }
   Scene scene;
   if (!l.tets.empty())
@@ -1246,6 +1262,7 @@ int run(Options const& o) {
     j["neighbours_bytes"] = neighbours.memory_bytes() + hex_neighbours.memory_bytes();
     if (o.mode == "iso") j["normals"] = normals;
     j["gradients_ms"] = gradients_ms;
+    if (gradients_beside_build) j["gradients_beside_build"] = true;  // inside build_ms's wall time
     j["gradients_bytes"] = tet_gradients.memory_bytes() + hex_gradients.memory_bytes();
     j["clip_planes"] = clip.planes.size();
     j["bvh_nodes"] = tet_bvh.node_count() * !l.tets.empty() + hex_bvh.node_count() * !l.hexes.empty();
