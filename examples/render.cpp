@@ -1262,8 +1262,8 @@ int run(Options const& o) {
     j["neighbours_bytes"] = neighbours.memory_bytes() + hex_neighbours.memory_bytes();
     if (o.mode == "iso") j["normals"] = normals;
     j["gradients_ms"] = gradients_ms;
-    if (gradients_beside_build) j["gradients_beside_build"] = true;  // inside build_ms's wall time
     j["gradients_bytes"] = tet_gradients.memory_bytes() + hex_gradients.memory_bytes();
+    if (gradients_beside_build) j["gradients_beside_build"] = true;  // inside build_ms's wall time
     j["clip_planes"] = clip.planes.size();
     j["bvh_nodes"] = tet_bvh.node_count() * !l.tets.empty() + hex_bvh.node_count() * !l.hexes.empty();
     j["bvh_bytes"] = bvh_bytes;

@@ -14,6 +14,12 @@ cli_script("smooth and flat normals draw different pictures, each as the referen
   if $P --compare $O/smooth.png $O/flat.png 0 4; then echo 'expected different images'; exit 1; fi
   $R ${ccdata}/block.vtk --iso 0.9 --size 64x48 --reference -o $O/smooth_ref.png
   $P --compare $O/smooth.png $O/smooth_ref.png 15")
+# The gradients are computed beside the BVH build only when the build's
+# array is the one rendered: a time step's normals are its own array's.
+cli_script("a time step's smooth normals are those of its own array" "
+  $R --cells 5000 --time-step 1 --size 64x48 -o $O/step_normals.png
+  $R --cells 5000 --array field_t1 --size 64x48 -o $O/step_normals_built.png
+  $P --compare $O/step_normals.png $O/step_normals_built.png 0 1")
 foreach(mode iso dvr)
   cli_script("--clip and --clip-box (${mode}) render as the reference does" "
     $R ${ccdata}/block.vtk --mode ${mode} --clip 1,1,1,1,0.3,0.2 --clip-caps --size 64x48 -o $O/clip_${mode}.png
