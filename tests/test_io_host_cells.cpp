@@ -246,6 +246,27 @@ TEST_CASE("split_vtk_cells splits a host's polyhedra as the .vtu reader splits t
     CHECK(mean[k] != own[k]);  // the file's cell values differ from the means
   }
 
+  // Many polyhedra: the means are computed in blocks, each finding its
+  // first pieces on its own. The host's cells repeated 300 times over the
+  // same points: polyhedron k is the file's polyhedron k % 2 again.
+  HostPolyhedra many = h;
+  int64_t const ncells = int64_t(h.types.size()), nconn = int64_t(h.connectivity.size());
+  int64_t const nstream = int64_t(h.stream.size());
+  for (int64_t r = 1; r < 300; ++r) {
+    for (int64_t c = 0; c < ncells; ++c) {
+      many.types.push_back(h.types[uint64_t(c)]);
+      many.offsets.push_back(h.offsets[uint64_t(c + 1)] + r * nconn);
+      many.locations.push_back(h.locations[uint64_t(c)] < 0 ? -1 : h.locations[uint64_t(c)] + r * nstream);
+    }
+    many.connectivity.insert(many.connectivity.end(), h.connectivity.begin(), h.connectivity.end());
+    many.stream.insert(many.stream.end(), h.stream.begin(), h.stream.end());
+  }
+  SplitCells const sm =
+      split_vtk_cells(view(many.types), view(many.offsets), view(many.connectivity), view(many.points), many.streams());
+  std::vector<float> const many_means = polyhedron_centre_values(sm, view(h.point_t));
+  REQUIRE(many_means.size() == 600);
+  for (size_t k = 0; k < many_means.size(); ++k) CHECK(many_means[k] == mean[k % 2]);
+
   // VTK 9.4's layout splits the same.
   SplitCells const s94 =
       split_vtk_cells(view(h.types), view(h.offsets), view(h.connectivity), view(h.points), h.cell_arrays());

@@ -23,6 +23,9 @@
 #include <utility>
 #include <vector>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "../error.hpp"
 #include "../mesh/span.hpp"
 #include "detail.hpp"
@@ -299,33 +302,43 @@ std::vector<float> polyhedron_centre_values(SplitCells const& s, Span<T> point_v
     return out;
   }
   // A polyhedron's cells come in its order within the tets and within the
-  // hexes; their ids below point_count are its points.
+  // hexes, after the host's own cells: a piece's largest id is its centre,
+  // point_count + k, and its ids below point_count are its points. Blocks
+  // of polyhedra in parallel, each finding its first pieces by bisection.
   uint64_t const np = s.point_count;
-  auto first_added = [np](std::vector<uint32_t> const& ids, int n) {
-    uint64_t i = ids.size() / uint64_t(n);
-    while (i > 0 && *std::max_element(ids.data() + n * (i - 1), ids.data() + n * i) >= np) --i;
-    return i;
+  auto centre_of = [](std::vector<uint32_t> const& ids, int n, uint64_t i) {
+    return uint64_t(*std::max_element(ids.data() + uint64_t(n) * i, ids.data() + uint64_t(n) * (i + 1)));
   };
-  uint64_t ti = first_added(s.tets, 4), hi = first_added(s.hexes, 8);
-  std::vector<uint64_t> verts;
-  for (uint64_t k = 0; k < npoly; ++k) {
-    verts.clear();
-    auto take = [&](std::vector<uint32_t> const& ids, int n, uint64_t& i) {
-      for (; i < ids.size() / uint64_t(n); ++i) {
-        uint32_t const* v = ids.data() + uint64_t(n) * i;
-        if (*std::max_element(v, v + n) != np + k) break;
-        for (int q = 0; q < n; ++q)
-          if (v[q] < np) verts.push_back(v[q]);
-      }
-    };
-    take(s.tets, 4, ti);
-    take(s.hexes, 8, hi);
-    std::sort(verts.begin(), verts.end());
-    verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-    double sum = 0;
-    for (uint64_t v : verts) sum += double(point_values[v]);
-    out[k] = float(sum / double(verts.size()));
-  }
+  // The first piece whose centre is point `centre` or a later one.
+  auto first_piece = [&](std::vector<uint32_t> const& ids, int n, uint64_t centre) {
+    uint64_t lo = 0, hi = ids.size() / uint64_t(n);
+    while (lo < hi) {
+      uint64_t const mid = lo + (hi - lo) / 2;
+      // The host's cells (all ids below np) come first: order them as centre np - 1.
+      if (std::max(centre_of(ids, n, mid), np - 1) < centre) lo = mid + 1;
+      else hi = mid;
+    }
+    return lo;
+  };
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, npoly, 64), [&](tbb::blocked_range<uint64_t> const& r) {
+    uint64_t ti = first_piece(s.tets, 4, np + r.begin()), hi = first_piece(s.hexes, 8, np + r.begin());
+    std::vector<uint64_t> verts;
+    for (uint64_t k = r.begin(); k < r.end(); ++k) {
+      verts.clear();
+      auto take = [&](std::vector<uint32_t> const& ids, int n, uint64_t& i) {
+        for (; i < ids.size() / uint64_t(n) && centre_of(ids, n, i) == np + k; ++i)
+          for (int q = 0; q < n; ++q)
+            if (uint32_t const v = ids[uint64_t(n) * i + uint64_t(q)]; v < np) verts.push_back(v);
+      };
+      take(s.tets, 4, ti);
+      take(s.hexes, 8, hi);
+      std::sort(verts.begin(), verts.end());
+      verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+      double sum = 0;
+      for (uint64_t v : verts) sum += double(point_values[v]);
+      out[k] = float(sum / double(verts.size()));
+    }
+  });
   return out;
 }
 
