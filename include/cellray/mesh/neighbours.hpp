@@ -67,63 +67,107 @@ template <> struct FaceKey<uint64_t> {  // beyond 2^32 vertices
   static FaceKey sentinel() noexcept { return {~uint64_t(0), ~uint64_t(0), 0, 0}; }
 };
 
+/// The parallel counting sort both matchers bucket their faces with: each
+/// of B blocks of cells counts its entries into its own histogram over the
+/// vertices (no atomics), one scan turns the histograms into every block's
+/// cursor in every bucket, and each block scatters its entries. Blocks: one
+/// per thread, each at least 16k cells, their histograms (4 bytes per
+/// vertex each) at most `histogram_bytes_per_cell` bytes per cell.
+class VertexBuckets {
+ public:
+  VertexBuckets(uint64_t cells, uint64_t vertices, uint64_t histogram_bytes_per_cell) : n_(cells), nv_(vertices) {
+    blocks_ = uint64_t(std::max(1, tbb::this_task_arena::max_concurrency()));
+    blocks_ = std::min(blocks_, std::max<uint64_t>(1, n_ >> 14));
+    blocks_ = std::min(blocks_, std::max<uint64_t>(1, histogram_bytes_per_cell / 4 * n_ / std::max<uint64_t>(nv_, 1)));
+    cursor_.resize(blocks_ * nv_);
+  }
+
+  /// Counts: `count_cell(c, count)` adds cell c's entries (++count[vertex])
+  /// and returns false for a cell naming a vertex out of range, which ends
+  /// its block. Returns the first such cell, or the cell count.
+  template <class CountCell> uint64_t count(CountCell const& count_cell) {
+    std::atomic<uint64_t> first_bad{n_};
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks_, 1), [&](tbb::blocked_range<uint64_t> const& range) {
+      for (uint64_t b = range.begin(); b < range.end(); ++b) {
+        uint32_t* const count = cursor_.data() + b * nv_;
+        std::fill(count, count + nv_, 0u);
+        for (uint64_t c = block_begin(b), e = block_begin(b + 1); c < e; ++c)
+          if (!count_cell(c, count)) {
+            uint64_t seen = first_bad.load();
+            while (c < seen && !first_bad.compare_exchange_weak(seen, c)) {
+            }
+            break;
+          }
+      }
+    });
+    if (first_bad.load() < n_) return first_bad.load();
+    // Bucket a holds, block by block, [cursor of block 0 in a, end of a).
+    // 32-bit offsets: the callers keep the entries under 2^32.
+    uint32_t running = 0;
+    for (uint64_t a = 0; a < nv_; ++a)
+      for (uint64_t b = 0; b < blocks_; ++b) {
+        uint32_t const k = cursor_[b * nv_ + a];
+        cursor_[b * nv_ + a] = running;
+        running += k;
+      }
+    total_ = running;
+    return n_;
+  }
+
+  /// Entries counted: the size of the array `scatter` fills.
+  uint32_t total() const noexcept { return total_; }
+
+  /// Scatters: `place_cell(c, fill)` stores cell c's entries, in the order
+  /// it counted them, at fill[vertex]++.
+  template <class PlaceCell> void scatter(PlaceCell const& place_cell) {
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks_, 1), [&](tbb::blocked_range<uint64_t> const& range) {
+      for (uint64_t b = range.begin(); b < range.end(); ++b) {
+        uint32_t* const fill = cursor_.data() + b * nv_;
+        for (uint64_t c = block_begin(b), e = block_begin(b + 1); c < e; ++c) place_cell(c, fill);
+      }
+    });
+  }
+
+  /// After scatter: bucket a is [end(a - 1), end(a)) (end(-1) = 0).
+  uint32_t const* ends() const noexcept { return cursor_.data() + (blocks_ - 1) * nv_; }
+
+ private:
+  uint64_t block_begin(uint64_t b) const noexcept { return b * n_ / blocks_; }
+  uint64_t n_, nv_, blocks_ = 1;
+  uint32_t total_ = 0;
+  LargeVector<uint32_t> cursor_;
+};
+
 /// build_tet_neighbours over `Src` vertex ids (the mesh's index type),
 /// bucketed with `Id` (32-bit when the vertex count fits).
 ///
 /// Every non-degenerate cell with sorted ids v0 < v1 < v2 < v3 has faces
 /// 1..3 in the bucket of v0 and face 0 in the bucket of v1, so the buckets
-/// hold cells, not faces: 2 entries per cell. A parallel counting sort fills
-/// them: each of B blocks of cells counts into its own histogram over the
-/// vertices, one scan turns the histograms into every block's cursor in
-/// every bucket, and each block scatters its cells. Within a bucket, faces
-/// with the same other two vertices meet in a small hash table; a group of
-/// exactly two is a shared face. Only the groups reach the result, not the
-/// order within a bucket, so it does not depend on B or the thread count.
+/// hold cells, not faces: 2 entries per cell, filled by VertexBuckets'
+/// parallel counting sort. Within a bucket, faces with the same other two
+/// vertices meet in a small hash table; a group of exactly two is a shared
+/// face. Only the groups reach the result, not the order within a bucket,
+/// so it does not depend on the blocks or the thread count.
 template <class Id, class Src> void match_tet_faces(Src const* idx, uint64_t n, uint64_t nv, int32_t* across) {
-  // Blocks: one per thread, each at least 16k cells, and their histograms
-  // (4 bytes per vertex each) at most 4 bytes per cell.
-  uint64_t blocks = uint64_t(std::max(1, tbb::this_task_arena::max_concurrency()));
-  blocks = std::min(blocks, std::max<uint64_t>(1, n >> 14));
-  blocks = std::min(blocks, std::max<uint64_t>(1, n / std::max<uint64_t>(nv, 1)));
-  auto block_begin = [&](uint64_t b) { return b * n / blocks; };
-  LargeVector<uint32_t> cursor(blocks * nv);
-  std::atomic<uint64_t> first_bad{n};  // the first cell with a vertex id out of range
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& range) {
-    for (uint64_t b = range.begin(); b < range.end(); ++b) {
-      uint32_t* const count = cursor.data() + b * nv;
-      std::fill(count, count + nv, 0u);
-      for (uint64_t c = block_begin(b), e = block_begin(b + 1); c < e; ++c) {
-        Src v[4];
-        sorted_corners(idx + 4 * c, v);
-        if (v[3] >= nv) {
-          uint64_t seen = first_bad.load();
-          while (c < seen && !first_bad.compare_exchange_weak(seen, c)) {
-          }
-          break;
-        }
-        if (v[0] == v[1] || v[1] == v[2] || v[2] == v[3]) {  // degenerate: no neighbours
-          for (int f = 0; f < 4; ++f) across[4 * c + uint64_t(f)] = -1;
-          continue;
-        }
-        ++count[v[0]];
-        ++count[v[1]];
-      }
-    }
-  });
-  if (uint64_t const c = first_bad.load(); c < n) {
+  VertexBuckets buckets(n, nv, 4);
+  uint64_t const bad = buckets.count([&](uint64_t c, uint32_t* count) {
     Src v[4];
     sorted_corners(idx + 4 * c, v);
-    throw InvalidMesh("cell " + std::to_string(c) + " refers to vertex " + std::to_string(v[3]) + " of " +
+    if (v[3] >= nv) return false;
+    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[3]) {  // degenerate: no neighbours
+      for (int f = 0; f < 4; ++f) across[4 * c + uint64_t(f)] = -1;
+      return true;
+    }
+    ++count[v[0]];
+    ++count[v[1]];
+    return true;
+  });
+  if (bad < n) {
+    Src v[4];
+    sorted_corners(idx + 4 * bad, v);
+    throw InvalidMesh("cell " + std::to_string(bad) + " refers to vertex " + std::to_string(v[3]) + " of " +
                       std::to_string(nv));
   }
-  // Bucket a holds, block by block, [cursor of block 0 in a, end of a).
-  uint32_t running = 0;
-  for (uint64_t a = 0; a < nv; ++a)
-    for (uint64_t b = 0; b < blocks; ++b) {
-      uint32_t const k = cursor[b * nv + a];
-      cursor[b * nv + a] = running;
-      running += k;
-    }
   // The scatter copies each cell's ids into its entries: the buckets then
   // read sequentially, not the cells at random (1.35x faster matching on
   // component8_608k, whose cell order is not spatially coherent).
@@ -131,21 +175,15 @@ template <class Id, class Src> void match_tet_faces(Src const* idx, uint64_t n, 
     Id v[3];      // the cell's ids v1, v2, v3 (v0 is the bucket or below it)
     uint32_t cr;  // 2 cell + (bucket is v1)
   };
-  LargeVector<Entry> entry(running);
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& range) {
-    for (uint64_t b = range.begin(); b < range.end(); ++b) {
-      uint32_t* const fill = cursor.data() + b * nv;
-      for (uint64_t c = block_begin(b), e = block_begin(b + 1); c < e; ++c) {
-        Src v[4];
-        sorted_corners(idx + 4 * c, v);
-        if (v[0] == v[1] || v[1] == v[2] || v[2] == v[3]) continue;
-        entry[fill[v[0]]++] = Entry{{Id(v[1]), Id(v[2]), Id(v[3])}, uint32_t(2 * c)};
-        entry[fill[v[1]]++] = Entry{{Id(v[1]), Id(v[2]), Id(v[3])}, uint32_t(2 * c + 1)};
-      }
-    }
+  LargeVector<Entry> entry(buckets.total());
+  buckets.scatter([&](uint64_t c, uint32_t* fill) {
+    Src v[4];
+    sorted_corners(idx + 4 * c, v);
+    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[3]) return;
+    entry[fill[v[0]]++] = Entry{{Id(v[1]), Id(v[2]), Id(v[3])}, uint32_t(2 * c)};
+    entry[fill[v[1]]++] = Entry{{Id(v[1]), Id(v[2]), Id(v[3])}, uint32_t(2 * c + 1)};
   });
-  // The last block's cursors now end each bucket.
-  uint32_t const* const end = cursor.data() + (blocks - 1) * nv;
+  uint32_t const* const end = buckets.ends();
   tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nv, 2048), [&](tbb::blocked_range<uint64_t> const& range) {
     struct Group {
       uint32_t head, count, second;  // first key of the group; keys in it; the second key
@@ -362,76 +400,45 @@ template <class Id> struct HexCellFaces {
 /// build_hex_neighbours over `Src` vertex ids (the mesh's index type),
 /// bucketed with `Id` (32-bit when the vertex count fits). Every face with
 /// three or more distinct vertices goes to the bucket of its smallest
-/// vertex: a parallel counting sort as in match_tet_faces (each block of
-/// cells counts into its own histogram over the vertices, no atomics; one
-/// scan; each block scatters its faces, recomputed from the cell's ids
-/// rather than stored), keys carrying the other ids so buckets read
-/// sequentially. Each bucket is then sorted on the other ids and a run of
-/// exactly two equal faces is a shared face. Buckets are small (a vertex is
-/// the smallest of a few faces) and processed in parallel; only the runs
-/// reach the result, so it does not depend on the blocks or thread count.
+/// vertex: VertexBuckets' parallel counting sort (each block scatters its
+/// faces, recomputed from the cell's ids rather than stored), keys carrying
+/// the other ids so buckets read sequentially. Each bucket is then sorted on
+/// the other ids and a run of exactly two equal faces is a shared face.
+/// Buckets are small (a vertex is the smallest of a few faces) and processed
+/// in parallel; only the runs reach the result, so it does not depend on the
+/// blocks or thread count.
 template <class Id, class Src> void match_hex_faces(Src const* idx, uint64_t n, uint64_t nv, int32_t* across) {
   constexpr uint32_t small_bucket = 16;  // sorted below, hashed above
-  // Blocks: one per thread, each at least 16k cells, and their histograms
-  // (4 bytes per vertex each) at most 32 bytes per cell.
-  uint64_t blocks = uint64_t(std::max(1, tbb::this_task_arena::max_concurrency()));
-  blocks = std::min(blocks, std::max<uint64_t>(1, n >> 14));
-  blocks = std::min(blocks, std::max<uint64_t>(1, 8 * n / std::max<uint64_t>(nv, 1)));
-  auto block_begin = [&](uint64_t b) { return b * n / blocks; };
-  LargeVector<uint32_t> cursor(blocks * nv);
-  std::atomic<uint64_t> first_bad{n};  // the first cell with a vertex id out of range
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& range) {
-    for (uint64_t b = range.begin(); b < range.end(); ++b) {
-      uint32_t* const count = cursor.data() + b * nv;
-      std::fill(count, count + nv, 0u);
-      for (uint64_t c = block_begin(b), e = block_begin(b + 1); c < e; ++c) {
-        Src const* const cell = idx + 8 * c;
-        Src top = cell[0];
-        for (int k = 1; k < 8; ++k) top = std::max(top, cell[k]);
-        if (top >= nv) {
-          uint64_t seen = first_bad.load();
-          while (c < seen && !first_bad.compare_exchange_weak(seen, c)) {
-          }
-          break;
-        }
-        HexCellFaces<Id> faces;
-        faces.read(cell, c);
-        for (int f = 0; f < 6; ++f) {
-          if (faces.distinct[f] >= 3) ++count[faces.low[f]];
-          else across[6 * c + uint64_t(f)] = -1;  // no area: no neighbour
-        }
-      }
+  VertexBuckets buckets(n, nv, 32);
+  uint64_t const bad = buckets.count([&](uint64_t c, uint32_t* count) {
+    Src const* const cell = idx + 8 * c;
+    Src top = cell[0];
+    for (int k = 1; k < 8; ++k) top = std::max(top, cell[k]);
+    if (top >= nv) return false;
+    HexCellFaces<Id> faces;
+    faces.read(cell, c);
+    for (int f = 0; f < 6; ++f) {
+      if (faces.distinct[f] >= 3) ++count[faces.low[f]];
+      else across[6 * c + uint64_t(f)] = -1;  // no area: no neighbour
     }
+    return true;
   });
-  if (uint64_t const c = first_bad.load(); c < n) {
+  if (bad < n) {
     for (int k = 0; k < 8; ++k)
-      if (uint64_t(idx[8 * c + uint64_t(k)]) >= nv)
-        throw InvalidMesh("cell " + std::to_string(c) + " corner " + std::to_string(k) + " names vertex " +
-                          std::to_string(uint64_t(idx[8 * c + uint64_t(k)])) + ", the mesh has " + std::to_string(nv));
+      if (uint64_t(idx[8 * bad + uint64_t(k)]) >= nv)
+        throw InvalidMesh("cell " + std::to_string(bad) + " corner " + std::to_string(k) + " names vertex " +
+                          std::to_string(uint64_t(idx[8 * bad + uint64_t(k)])) + ", the mesh has " +
+                          std::to_string(nv));
   }
-  // Bucket a holds, block by block, [cursor of block 0 in a, end of a).
   // Under 6 x 2^29 faces: 32-bit offsets (see the caller).
-  uint32_t running = 0;
-  for (uint64_t a = 0; a < nv; ++a)
-    for (uint64_t b = 0; b < blocks; ++b) {
-      uint32_t const k = cursor[b * nv + a];
-      cursor[b * nv + a] = running;
-      running += k;
-    }
-  LargeVector<HexFaceKey<Id>> keys(running);  // unset: every entry is written below
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, blocks, 1), [&](tbb::blocked_range<uint64_t> const& range) {
-    for (uint64_t b = range.begin(); b < range.end(); ++b) {
-      uint32_t* const fill = cursor.data() + b * nv;
-      for (uint64_t c = block_begin(b), e = block_begin(b + 1); c < e; ++c) {
-        HexCellFaces<Id> faces;
-        faces.read(idx + 8 * c, c);
-        for (int f = 0; f < 6; ++f)
-          if (faces.distinct[f] >= 3) keys[fill[faces.low[f]]++] = faces.key[f];
-      }
-    }
+  LargeVector<HexFaceKey<Id>> keys(buckets.total());  // unset: every entry is written below
+  buckets.scatter([&](uint64_t c, uint32_t* fill) {
+    HexCellFaces<Id> faces;
+    faces.read(idx + 8 * c, c);
+    for (int f = 0; f < 6; ++f)
+      if (faces.distinct[f] >= 3) keys[fill[faces.low[f]]++] = faces.key[f];
   });
-  // The last block's cursors now end each bucket.
-  uint32_t const* const end = cursor.data() + (blocks - 1) * nv;
+  uint32_t const* const end = buckets.ends();
   tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nv, 2048), [&](tbb::blocked_range<uint64_t> const& range) {
     struct Group {
       uint32_t head, count, second;  // first key of the group; keys in it; the last key
