@@ -409,6 +409,7 @@ template <class Id> struct HexCellFaces {
 /// blocks or thread count.
 template <class Id, class Src> void match_hex_faces(Src const* idx, uint64_t n, uint64_t nv, int32_t* across) {
   constexpr uint32_t small_bucket = 16;  // sorted below, hashed above
+  // Under 6 x 2^29 faces: 32-bit offsets (see the caller).
   VertexBuckets buckets(n, nv, 32);
   uint64_t const bad = buckets.count([&](uint64_t c, uint32_t* count) {
     Src const* const cell = idx + 8 * c;
@@ -430,7 +431,6 @@ template <class Id, class Src> void match_hex_faces(Src const* idx, uint64_t n, 
                           std::to_string(uint64_t(idx[8 * bad + uint64_t(k)])) + ", the mesh has " +
                           std::to_string(nv));
   }
-  // Under 6 x 2^29 faces: 32-bit offsets (see the caller).
   LargeVector<HexFaceKey<Id>> keys(buckets.total());  // unset: every entry is written below
   buckets.scatter([&](uint64_t c, uint32_t* fill) {
     HexCellFaces<Id> faces;
