@@ -29,14 +29,16 @@ template <class A> struct SceneHit {
   vfloat<A> t;
   vint<A> iso, item, part;  ///< part: index into PreparedScene::parts
   Vec3<A> grad{};           ///< when asked for: the analytic gradient at the hit (FirstHitQuery::grad)
+  Vec3<A> param{};          ///< when asked for, in hexahedral parts: the hit's trilinear coordinates (FirstHitQuery::param)
 };
 
 template <class A, int N>
 inline void hit_part(PreparedPart const& part, CellMesh<N> const& mesh, RayPacket<A> const& r, vmask<A> active,
                      IsoSet const& isos, CellIsoOptions const& roots, Traversal how, int threshold, int part_index,
-                     SceneHit<A>& best, bool gradient) {
+                     SceneHit<A>& best, bool gradient, bool param) {
   FirstHitQuery<A, N> q{part.tree, mesh, r, isos, roots, {best.t, vint<A>(-1), vint<A>(-1)}};
   q.want_gradient = gradient;
+  q.want_param = param && N == 8;
   switch (how) {
     case Traversal::packet: traverse_packet<A>(part.tree, r, active, q); break;
     case Traversal::hybrid: traverse_packet<A>(part.tree, r, active, q, 0, threshold); break;
@@ -49,12 +51,15 @@ inline void hit_part(PreparedPart const& part, CellMesh<N> const& mesh, RayPacke
   best.item = simd::select(bi, q.hit.item, best.item);
   best.part = simd::select(bi, vint<A>(part_index), best.part);
   if (gradient) best.grad = select<A>(better, q.grad, best.grad);
+  if (q.want_param) best.param = select<A>(better, q.param, best.param);
 }
 
-/// `gradient`: hits also bring their analytic gradient (SceneHit::grad).
+/// `gradient`: hits also bring their analytic gradient (SceneHit::grad);
+/// `param`: hits in hexahedra their trilinear coordinates (SceneHit::param).
 template <class A>
 inline SceneHit<A> nearest_hit(PreparedScene const& s, RayPacket<A> const& r, vmask<A> active, IsoSet const& isos,
-                               CellIsoOptions const& roots, Traversal how, int threshold, bool gradient = false) {
+                               CellIsoOptions const& roots, Traversal how, int threshold, bool gradient = false,
+                               bool param = false) {
   // Members one by one: aggregate initialisation zeroed all 7 vectors with
   // `rep stos` first (g++ 12), a slow start-up on every packet.
   SceneHit<A> best;
@@ -62,8 +67,8 @@ inline SceneHit<A> nearest_hit(PreparedScene const& s, RayPacket<A> const& r, vm
   best.iso = best.item = best.part = vint<A>(-1);
   for (size_t p = 0; p < s.parts.size(); ++p) {
     PreparedPart const& part = s.parts[p];
-    if (part.tets) hit_part<A>(part, *part.tets, r, active, isos, roots, how, threshold, int(p), best, gradient);
-    else hit_part<A>(part, *part.hexes, r, active, isos, roots, how, threshold, int(p), best, gradient);
+    if (part.tets) hit_part<A>(part, *part.tets, r, active, isos, roots, how, threshold, int(p), best, gradient, param);
+    else hit_part<A>(part, *part.hexes, r, active, isos, roots, how, threshold, int(p), best, gradient, param);
   }
   return best;
 }
@@ -79,12 +84,35 @@ inline glm::vec3 normal_at(PreparedPart const& part, uint64_t slot, glm::vec3 p,
 /// the cell's shape functions there (tets: barycentric; hexes: trilinear at
 /// the located coordinates), to interpolate any per-vertex quantity at an
 /// isosurface hit (smooth normals, colour by another array). NaN weights
-/// where a hex inversion fails.
+/// where a hex inversion fails. `hex_param`, if given and in the cell: a
+/// hexahedron's coordinates at `p`, known already (the root search's), so
+/// nothing is located: inverting each hit again was a quarter of a boxturb48
+/// iso frame. Coordinates outside the cell (a root search that did not
+/// converge, in a badly shaped cell) are located again.
 template <int N> struct CellWeights {
   uint64_t v[N];
   float w[N];
 };
-template <int N> inline CellWeights<N> cell_weights(CellMesh<N> const& mesh, uint64_t cell, glm::vec3 const& p) {
+template <int N>
+inline CellWeights<N> cell_weights(CellMesh<N> const& mesh, uint64_t cell, glm::vec3 const& p,
+                                   glm::vec3 const* hex_param = nullptr) {
+  auto trilinear = [](CellWeights<N>& out, glm::vec3 const& param) {
+    float const u = std::clamp(param.x, 0.f, 1.f), v = std::clamp(param.y, 0.f, 1.f), w = std::clamp(param.z, 0.f, 1.f);
+    for (int i = 0; i < N; ++i) {  // VTK order: bit 0 of (0 1 3 2 4 5 7 6)[i] is u, bit 1 v, bit 2 w
+      static constexpr int corner[8] = {0, 1, 3, 2, 4, 5, 7, 6};
+      int const b = corner[i];
+      out.w[i] = ((b & 1) ? u : 1.f - u) * ((b & 2) ? v : 1.f - v) * ((b & 4) ? w : 1.f - w);
+    }
+  };
+  if constexpr (N == 8) {
+    auto in_cell = [](float x) { return x >= -1e-3f && x <= 1.f + 1e-3f; };  // false for NaN
+    if (hex_param && in_cell(hex_param->x) && in_cell(hex_param->y) && in_cell(hex_param->z)) {
+      CellWeights<N> out;
+      for (int i = 0; i < N; ++i) out.v[i] = mesh.vertex(cell, i);
+      trilinear(out, *hex_param);
+      return out;
+    }
+  }
   ScalarCorners<N> k;
   read_corner_values(mesh, cell, k);
   order_corners(mesh.vertex_count(), k);
@@ -95,17 +123,10 @@ template <int N> inline CellWeights<N> cell_weights(CellMesh<N> const& mesh, uin
   if constexpr (N == 4) {
     out.w[1] = at.param.x, out.w[2] = at.param.y, out.w[3] = at.param.z;
     out.w[0] = 1.f - out.w[1] - out.w[2] - out.w[3];
+  } else if (!at.converged || !std::isfinite(at.param.x + at.param.y + at.param.z)) {
+    for (float& x : out.w) x = std::numeric_limits<float>::quiet_NaN();
   } else {
-    float const u = std::clamp(at.param.x, 0.f, 1.f), v = std::clamp(at.param.y, 0.f, 1.f),
-                w = std::clamp(at.param.z, 0.f, 1.f);
-    if (!at.converged || !std::isfinite(at.param.x + at.param.y + at.param.z))
-      for (float& x : out.w) x = std::numeric_limits<float>::quiet_NaN();
-    else
-      for (int i = 0; i < 8; ++i) {  // VTK order: bit 0 of (0 1 3 2 4 5 7 6)[i] is u, bit 1 v, bit 2 w
-        static constexpr int corner[8] = {0, 1, 3, 2, 4, 5, 7, 6};
-        int const b = corner[i];
-        out.w[i] = ((b & 1) ? u : 1.f - u) * ((b & 2) ? v : 1.f - v) * ((b & 4) ? w : 1.f - w);
-      }
+    trilinear(out, {at.param.x, at.param.y, at.param.z});
   }
   return out;
 }
@@ -114,13 +135,13 @@ template <int N> inline CellWeights<N> cell_weights(CellMesh<N> const& mesh, uin
 /// location: the smooth shading normal facing against `dir` (if `normal`;
 /// GradientMethod::smooth: the vertex gradients interpolated, or the cell's
 /// analytic normal where that is NaN or zero) and the colour array's value
-/// (if `value`; NaN where a corner is NaN).
+/// (if `value`; NaN where a corner is NaN). `hex_param`: see cell_weights.
 inline void hit_attributes(PreparedPart const& part, uint64_t slot, glm::vec3 const& p, glm::vec3 const& dir,
-                           glm::vec3* normal, float* value) {
+                           glm::vec3* normal, float* value, glm::vec3 const* hex_param = nullptr) {
   uint64_t const cell = part.tree.item(slot);
   glm::vec3 g(0.f);
   auto interpolate = [&](auto const& mesh) {
-    auto const cw = cell_weights(mesh, cell, p);
+    auto const cw = cell_weights(mesh, cell, p, hex_param);
     float v = 0.f;
     for (int i = 0; i < std::decay_t<decltype(mesh)>::corners; ++i) {
       if (normal)
@@ -198,6 +219,11 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
   // locate each hit again, per lane (normal_at).
   bool const query_gradient = p.normals == GradientMethod::analytic;
   bool const smooth = p.normals == GradientMethod::smooth;
+  // Smooth normals and colour by another array interpolate at the hit;
+  // hexahedra bring the hit's coordinates from the root search for it.
+  bool const attributes = smooth || s.color_by;
+  bool const hex_attributes =
+      attributes && std::any_of(s.parts.begin(), s.parts.end(), [](PreparedPart const& q) { return q.hexes; });
   // Any-hit shadow rays need one opacity for every surface (see the shadow block).
   bool const secondary = p.shadows || p.ao_samples > 0;
   // AO rays march from their hit cells where the scene allows (one tet part
@@ -259,7 +285,7 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
       // Front-to-back layers: continue behind semi-transparent surfaces.
       for (int layer = 0; layer < 16 && live; ++layer) {
         SceneHit<A> const h = nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots, o.traversal, threshold,
-                                             query_gradient);
+                                             query_gradient, hex_attributes);
         vmask<A> const hit = simd::mask_from_bits<A>(live) && simd::to_float_mask(h.item >= vint<A>(0));
         uint32_t hit_bits = simd::movemask(hit);
         if (!hit_bits) break;
@@ -279,6 +305,10 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
         std::array<float, W> nrm_a[3] = {simd::to_array<A>(normal.x), simd::to_array<A>(normal.y),
                                          simd::to_array<A>(normal.z)};
         auto const iso = simd::to_array<A>(h.iso), item = simd::to_array<A>(h.item), part = simd::to_array<A>(h.part);
+        std::array<float, W> param_a[3] = {};
+        if (hex_attributes)
+          param_a[0] = simd::to_array<A>(h.param.x), param_a[1] = simd::to_array<A>(h.param.y),
+          param_a[2] = simd::to_array<A>(h.param.z);
         glm::vec3 pos[W], nrm[W], ldir[W];
         alignas(64) float base_r[W] = {}, base_g[W] = {}, base_b[W] = {}, opacity[W] = {};
         std::array<float, W> dir_a[3];
@@ -289,10 +319,13 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           PreparedPart const& hit_part = s.parts[size_t(part[l])];
           glm::vec3 n(0.f);
           float colour_value = std::numeric_limits<float>::quiet_NaN();
-          if (smooth || s.color_by)  // one location of the hit for both
+          if (attributes) {  // one location of the hit for both
+            glm::vec3 const param = hit_part.hexes ? lane_vec<W>(param_a, l) : glm::vec3(0.f);
             hit_attributes(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l),
                            smooth ? lane_vec<W>(dir_a, l) : glm::vec3(0.f),  // dir_a is filled when normals are not analytic
-                           smooth ? &n : nullptr, s.color_by ? &colour_value : nullptr);
+                           smooth ? &n : nullptr, s.color_by ? &colour_value : nullptr,
+                           hit_part.hexes ? &param : nullptr);
+          }
           if (!query_gradient) {
             if (!smooth) n = normal_at(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l), lane_vec<W>(dir_a, l), p.normals);
             nrm_a[0][size_t(l)] = n.x, nrm_a[1][size_t(l)] = n.y, nrm_a[2][size_t(l)] = n.z;

@@ -57,6 +57,11 @@ template <class A, int N> struct FirstHitQuery {
   /// location). Lanes without a hit: unspecified.
   bool want_gradient = false;
   Vec3<A> grad{};
+  /// Hexahedra: also keep, in `param`, each hit lane's trilinear
+  /// coordinates from the root search (iso_root_hex's), so that shading
+  /// interpolates at the hit without inverting the cell again.
+  bool want_param = false;
+  Vec3<A> param{};
 
   /// A constructor, not aggregate initialisation: g++ zeroed the whole
   /// query (about 500 bytes, `rep stos`) before storing the members, once
@@ -106,11 +111,12 @@ template <class A, int N> struct FirstHitQuery {
   /// trilinear coordinates for it; a tet's is one per cell).
   void cell_hits(CellCorners<A, N> const& c, vmask<A> const& m, vint<A> const& slots) {
     Vec3<A> u{};
-    bool const hex_param = N == 8 && want_gradient;
+    bool const hex_param = N == 8 && (want_gradient || want_param);
     CellIsoHit<A> const h =
         iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method, hex_param ? &u : nullptr);
     if (simd::none(h.hit)) return;
     update(h.hit, h.t, h.iso_index, slots);
+    if (N == 8 && want_param) param = select<A>(h.hit, u, param);
     if (!want_gradient) return;
     if constexpr (N == 8) grad = select<A>(h.hit, gradient_hex(c, u), grad);
     else grad = select<A>(h.hit, gradient_tet(c), grad);
