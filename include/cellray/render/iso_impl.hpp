@@ -163,6 +163,64 @@ inline void hit_attributes(PreparedPart const& part, uint64_t slot, glm::vec3 co
   *normal = {n.x, n.y, n.z};
 }
 
+/// hit_attributes for the hit lanes `lanes` of one part at once, where the
+/// mesh fits gather_corners' 32-bit offsets (else no lane): tets located in
+/// SIMD, hexahedra at `param` (SceneHit::param); `normal` (smooth normals)
+/// and `value` (colour by) of the lanes it returns. The rest, per lane
+/// (hit_attributes): hex coordinates outside the cell, and, for normals, a
+/// zero or non-finite interpolated gradient (the analytic normal's case).
+/// Per lane in scalar, the same work was 15% of a component8 iso frame.
+template <class A, int N>
+inline vmask<A> hit_attributes_packet(PreparedPart const& part, CellMesh<N> const& mesh, vmask<A> lanes,
+                                      vint<A> const& slots, Vec3<A> const& pos, Vec3<A> const& param,
+                                      Vec3<A> const& dir, bool smooth, bool colour, Vec3<A>& normal,
+                                      vfloat<A>& value) {
+  constexpr uint64_t lim = uint64_t(std::numeric_limits<int32_t>::max());
+  if (!mesh.has_32bit_indices() || !(mesh.cell_count() * N < lim) || !(mesh.vertex_count() * 3 < lim))
+    return simd::no_lanes<A>();
+  vint<A> const cells = simd::select(simd::to_int_mask(lanes), slot_cells<A>(part.tree, slots, lanes), vint<A>(0));
+  vfloat<A> w[N];
+  vint<A> id[N];
+  if constexpr (N == 4) {
+    CellCorners<A, 4> const c = gather_corners<A, 4>(mesh, cells, lanes);  // ids sorted, as cell_weights orders them
+    Located<A> const at = locate_tet<A>(PointBatch<A>{pos.x, pos.y, pos.z}, c);
+    w[1] = at.param.x, w[2] = at.param.y, w[3] = at.param.z;
+    w[0] = vfloat<A>(1.f) - w[1] - w[2] - w[3];
+    for (int i = 0; i < 4; ++i) id[i] = c.id[i];
+  } else {
+    auto in_cell = [](vfloat<A> const& x) { return x >= vfloat<A>(-1e-3f) && x <= vfloat<A>(1.f + 1e-3f); };
+    lanes = lanes && in_cell(param.x) && in_cell(param.y) && in_cell(param.z);
+    if (simd::none(lanes)) return lanes;
+    vfloat<A> const zero(0.f), one(1.f);
+    vfloat<A> const u = simd::min(simd::max(param.x, zero), one), v = simd::min(simd::max(param.y, zero), one),
+                    t = simd::min(simd::max(param.z, zero), one);
+    auto const* idx = reinterpret_cast<int32_t const*>(mesh.indices32());
+    for (int i = 0; i < N; ++i) {  // VTK order: bit 0 of (0 1 3 2 4 5 7 6)[i] is u, bit 1 v, bit 2 w
+      static constexpr int corner[8] = {0, 1, 3, 2, 4, 5, 7, 6};
+      int const b = corner[i];
+      w[i] = ((b & 1) ? u : one - u) * ((b & 2) ? v : one - v) * ((b & 4) ? t : one - t);
+      id[i] = simd::gather(idx, cells * vint<A>(N) + vint<A>(i));
+    }
+  }
+  Vec3<A> g{vfloat<A>(0.f), vfloat<A>(0.f), vfloat<A>(0.f)};
+  vfloat<A> sum(0.f);
+  for (int i = 0; i < N; ++i) {
+    if (smooth) {
+      vint<A> const k = id[i] * vint<A>(3);
+      g.x = g.x + w[i] * simd::gather(part.gradients, k);
+      g.y = g.y + w[i] * simd::gather(part.gradients + 1, k);
+      g.z = g.z + w[i] * simd::gather(part.gradients + 2, k);
+    }
+    if (colour) sum = sum + w[i] * simd::gather(part.color_values, id[i]);
+  }
+  if (colour) value = sum;
+  if (!smooth) return lanes;
+  vfloat<A> const gg = dot(g, g);
+  lanes = lanes && gg > vfloat<A>(0.f) && gg < vfloat<A>(std::numeric_limits<float>::infinity());  // false for NaN
+  normal = face_forward<A>(shading_normal<A>(g, dir), dir);
+  return lanes;
+}
+
 /// Lane `l` of a Vec3 stored as three arrays.
 template <size_t W> inline glm::vec3 lane_vec(std::array<float, W> const (&v)[3], int l) {
   return {v[0][size_t(l)], v[1][size_t(l)], v[2][size_t(l)]};
@@ -305,10 +363,34 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
         std::array<float, W> nrm_a[3] = {simd::to_array<A>(normal.x), simd::to_array<A>(normal.y),
                                          simd::to_array<A>(normal.z)};
         auto const iso = simd::to_array<A>(h.iso), item = simd::to_array<A>(h.item), part = simd::to_array<A>(h.part);
-        std::array<float, W> param_a[3] = {};
-        if (hex_attributes)
-          param_a[0] = simd::to_array<A>(h.param.x), param_a[1] = simd::to_array<A>(h.param.y),
-          param_a[2] = simd::to_array<A>(h.param.z);
+        // Smooth normals and colour values, part by part for all hit lanes
+        // at once; the lanes that leaves go one by one below.
+        uint32_t packet_done = 0;
+        std::array<float, W> packet_normal[3] = {}, packet_value = {}, param_a[3] = {};
+        if (attributes) {
+          Vec3<A> pn{};
+          vfloat<A> pv(std::numeric_limits<float>::quiet_NaN());
+          for (size_t pi = 0; pi < s.parts.size(); ++pi) {
+            vmask<A> const in_part = hit && simd::to_float_mask(h.part == vint<A>(int32_t(pi)));
+            if (simd::none(in_part)) continue;
+            PreparedPart const& pp = s.parts[pi];
+            Vec3<A> n{};
+            vfloat<A> v(0.f);
+            vmask<A> const done =
+                pp.tets ? hit_attributes_packet<A, 4>(pp, *pp.tets, in_part, h.item, hit_pos, h.param, dir, smooth,
+                                                      s.color_by, n, v)
+                        : hit_attributes_packet<A, 8>(pp, *pp.hexes, in_part, h.item, hit_pos, h.param, dir, smooth,
+                                                      s.color_by, n, v);
+            pn = select<A>(done, n, pn);
+            pv = simd::select(done, v, pv);
+            packet_done |= simd::movemask(done);
+          }
+          packet_normal[0] = simd::to_array<A>(pn.x), packet_normal[1] = simd::to_array<A>(pn.y),
+          packet_normal[2] = simd::to_array<A>(pn.z), packet_value = simd::to_array<A>(pv);
+          if (hex_attributes && (hit_bits & ~packet_done))
+            param_a[0] = simd::to_array<A>(h.param.x), param_a[1] = simd::to_array<A>(h.param.y),
+            param_a[2] = simd::to_array<A>(h.param.z);
+        }
         glm::vec3 pos[W], nrm[W], ldir[W];
         alignas(64) float base_r[W] = {}, base_g[W] = {}, base_b[W] = {}, opacity[W] = {};
         std::array<float, W> dir_a[3];
@@ -319,7 +401,10 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           PreparedPart const& hit_part = s.parts[size_t(part[l])];
           glm::vec3 n(0.f);
           float colour_value = std::numeric_limits<float>::quiet_NaN();
-          if (attributes) {  // one location of the hit for both
+          if (attributes && (packet_done >> l & 1u)) {
+            if (smooth) n = lane_vec<W>(packet_normal, l);
+            if (s.color_by) colour_value = packet_value[size_t(l)];
+          } else if (attributes) {  // one location of the hit for both
             glm::vec3 const param = hit_part.hexes ? lane_vec<W>(param_a, l) : glm::vec3(0.f);
             hit_attributes(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l),
                            smooth ? lane_vec<W>(dir_a, l) : glm::vec3(0.f),  // dir_a is filled when normals are not analytic
