@@ -17,6 +17,8 @@
 #include <cellray/render/camera.hpp>
 #include <cellray/traverse/first_hit.hpp>
 
+#include "support/first_hits.hpp"
+
 // One namespace per file: a stage's files compile as one unity TU
 // (tests/CMakeLists.txt), where file-local names must not meet.
 namespace test_traverse_tet_gradient {
@@ -30,36 +32,24 @@ TEST_CASE("first hit: the tet gradient kept at each hit matches the double refer
   TetMesh const mesh = g.mesh().with_values(view(offset));
   MinMaxBvh const bvh = build_minmax_bvh(mesh);
   TreeView const tree(bvh);
-  IsoSet isos;
-  isos.count = 2;
-  isos.values[0] = 401.7f;
-  isos.values[1] = 402.3f;
-  CellIsoOptions const exact;
-
   Camera const cam = Camera::look_at({2.2f, 1.4f, 3.1f}, glm::vec3(0.f), {0, 1, 0}, 50.f, 48, 36);
-  int hits = 0;
   double worst = 0;
-  for (int y = 0; y < cam.height; ++y)
-    for (int x = 0; x < cam.width; ++x) {
-      Ray const ray{cam.eye, 0.f, cam.direction(float(x), float(y)), 1e30f};
-      RayPacket<scalar> const r = load_rays<scalar>(&ray, 1);
-      FirstHitQuery<scalar, 4> q{tree, mesh, r, isos, exact, {r.tmax, -1, -1}};
-      q.want_gradient = true;
-      traverse_packet<scalar>(tree, r, true, q);
-      if (q.hit.item < 0) continue;
-      ++hits;
-      glm::dvec3 const want = ref::gradient(ref::load(mesh, tree.item(uint64_t(q.hit.item))));
-      glm::dvec3 const got(q.grad.x, q.grad.y, q.grad.z);
-      REQUIRE(glm::length(want) > 0);
-      // Float corner positions and values are the reference's exact inputs;
-      // the value differences are exact in float (Sterbenz), so what is left
-      // is the rounding of edges, three cross products and one division on
-      // well-shaped cells: a few 1e-7 relative (measured worst 3.6e-7).
-      // 1e-5 leaves room for thinner cells.
-      double const err = glm::length(got - want) / glm::length(want);
-      worst = std::max(worst, err);
-      CHECK(err < 1e-5);
-    }
+  int const hits = test::for_each_first_hit(
+      tree, mesh, test::iso_set({401.7f, 402.3f}), CellIsoOptions{}, cam,
+      [](FirstHitQuery<scalar, 4>& q) { q.want_gradient = true; },
+      [&](FirstHitQuery<scalar, 4> const& q, Ray const&) {
+        glm::dvec3 const want = ref::gradient(ref::load(mesh, tree.item(uint64_t(q.hit.item))));
+        glm::dvec3 const got(q.grad.x, q.grad.y, q.grad.z);
+        REQUIRE(glm::length(want) > 0);
+        // Float corner positions and values are the reference's exact inputs;
+        // the value differences are exact in float (Sterbenz), so what is left
+        // is the rounding of edges, three cross products and one division on
+        // well-shaped cells: a few 1e-7 relative (measured worst 3.6e-7).
+        // 1e-5 leaves room for thinner cells.
+        double const err = glm::length(got - want) / glm::length(want);
+        worst = std::max(worst, err);
+        CHECK(err < 1e-5);
+      });
   INFO("worst relative gradient error " << worst);
   CHECK(hits > 100);  // 143 of the 1728 rays hit
 }
