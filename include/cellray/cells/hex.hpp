@@ -656,6 +656,26 @@ template <class A> inline Vec3<A> hex_world_gradient(CellCorners<A, 8> const& c,
 
 }  // namespace isa_detail
 
+/// The trilinear shape functions at coordinates u clamped to the cell, in
+/// VTK corner order: sum of w[i] * v[i] is trilerp(v, u) inside the cell.
+template <class A> inline void trilinear_weights(Vec3<A> const& u, vfloat<A> (&w)[8]) {
+  vfloat<A> const zero(0.f), one(1.f);
+  vfloat<A> const c[3] = {simd::min(simd::max(u.x, zero), one), simd::min(simd::max(u.y, zero), one),
+                          simd::min(simd::max(u.z, zero), one)};
+  for (int i = 0; i < 8; ++i) {
+    vfloat<A> f[3];
+    for (int a = 0; a < 3; ++a) f[a] = isa_detail::hex_corner_uvw[i][a] != 0.f ? c[a] : one - c[a];
+    w[i] = f[0] * f[1] * f[2];
+  }
+}
+
+/// Whether hexahedron coordinates lie in the cell within 1e-3 (false for
+/// NaN): a root search's coordinates that can stand for a located point.
+template <class A> inline vmask<A> hex_param_in_cell(Vec3<A> const& u) {
+  vfloat<A> const lo(-1e-3f), hi(1.f + 1e-3f);
+  return u.x >= lo && u.x <= hi && u.y >= lo && u.y <= hi && u.z >= lo && u.z <= hi;
+}
+
 /// Ray clip against one hex per lane by its six faces (see the file
 /// comment) for the lanes in `lanes` whose interval meets [t_lo, t_hi] (per
 /// lane): `hit` = the line crosses the cell && lanes && t_out >= t_lo &&

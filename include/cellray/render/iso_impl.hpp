@@ -97,16 +97,10 @@ template <int N>
 inline CellWeights<N> cell_weights(CellMesh<N> const& mesh, uint64_t cell, glm::vec3 const& p,
                                    glm::vec3 const* hex_param = nullptr) {
   auto trilinear = [](CellWeights<N>& out, glm::vec3 const& param) {
-    float const u = std::clamp(param.x, 0.f, 1.f), v = std::clamp(param.y, 0.f, 1.f), w = std::clamp(param.z, 0.f, 1.f);
-    for (int i = 0; i < N; ++i) {  // VTK order: bit 0 of (0 1 3 2 4 5 7 6)[i] is u, bit 1 v, bit 2 w
-      static constexpr int corner[8] = {0, 1, 3, 2, 4, 5, 7, 6};
-      int const b = corner[i];
-      out.w[i] = ((b & 1) ? u : 1.f - u) * ((b & 2) ? v : 1.f - v) * ((b & 4) ? w : 1.f - w);
-    }
+    if constexpr (N == 8) trilinear_weights<scalar>(Vec3<scalar>{param.x, param.y, param.z}, out.w);
   };
   if constexpr (N == 8) {
-    auto in_cell = [](float x) { return x >= -1e-3f && x <= 1.f + 1e-3f; };  // false for NaN
-    if (hex_param && in_cell(hex_param->x) && in_cell(hex_param->y) && in_cell(hex_param->z)) {
+    if (hex_param && hex_param_in_cell<scalar>(Vec3<scalar>{hex_param->x, hex_param->y, hex_param->z})) {
       CellWeights<N> out;
       for (int i = 0; i < N; ++i) out.v[i] = mesh.vertex(cell, i);
       trilinear(out, *hex_param);
@@ -188,19 +182,11 @@ inline vmask<A> hit_attributes_packet(PreparedPart const& part, CellMesh<N> cons
     w[0] = vfloat<A>(1.f) - w[1] - w[2] - w[3];
     for (int i = 0; i < 4; ++i) id[i] = c.id[i];
   } else {
-    auto in_cell = [](vfloat<A> const& x) { return x >= vfloat<A>(-1e-3f) && x <= vfloat<A>(1.f + 1e-3f); };
-    lanes = lanes && in_cell(param.x) && in_cell(param.y) && in_cell(param.z);
+    lanes = lanes && hex_param_in_cell<A>(param);
     if (simd::none(lanes)) return lanes;
-    vfloat<A> const zero(0.f), one(1.f);
-    vfloat<A> const u = simd::min(simd::max(param.x, zero), one), v = simd::min(simd::max(param.y, zero), one),
-                    t = simd::min(simd::max(param.z, zero), one);
+    trilinear_weights<A>(param, w);
     auto const* idx = reinterpret_cast<int32_t const*>(mesh.indices32());
-    for (int i = 0; i < N; ++i) {  // VTK order: bit 0 of (0 1 3 2 4 5 7 6)[i] is u, bit 1 v, bit 2 w
-      static constexpr int corner[8] = {0, 1, 3, 2, 4, 5, 7, 6};
-      int const b = corner[i];
-      w[i] = ((b & 1) ? u : one - u) * ((b & 2) ? v : one - v) * ((b & 4) ? t : one - t);
-      id[i] = simd::gather(idx, cells * vint<A>(N) + vint<A>(i));
-    }
+    for (int i = 0; i < N; ++i) id[i] = simd::gather(idx, cells * vint<A>(N) + vint<A>(i));
   }
   Vec3<A> g{vfloat<A>(0.f), vfloat<A>(0.f), vfloat<A>(0.f)};
   vfloat<A> sum(0.f);
