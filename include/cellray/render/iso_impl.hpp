@@ -38,7 +38,7 @@ inline void hit_part(PreparedPart const& part, CellMesh<N> const& mesh, RayPacke
                      SceneHit<A>& best, bool gradient, bool param) {
   FirstHitQuery<A, N> q{part.tree, mesh, r, isos, roots, {best.t, vint<A>(-1), vint<A>(-1)}};
   q.want_gradient = gradient;
-  q.want_param = param && N == 8;
+  q.want_param = param && CellOps<A, N>::keeps_param;
   switch (how) {
     case Traversal::packet: traverse_packet<A>(part.tree, r, active, q); break;
     case Traversal::hybrid: traverse_packet<A>(part.tree, r, active, q, 0, threshold); break;
@@ -81,29 +81,27 @@ inline glm::vec3 normal_at(PreparedPart const& part, uint64_t slot, glm::vec3 p,
 }
 
 /// Where `p` lies in `cell`: its vertex ids in the kernels' corner order and
-/// the cell's shape functions there (tets: barycentric; hexes: trilinear at
-/// the located coordinates), to interpolate any per-vertex quantity at an
-/// isosurface hit (smooth normals, colour by another array). NaN weights
-/// where a hex inversion fails. `hex_param`, if given and in the cell: a
-/// hexahedron's coordinates at `p`, known already (the root search's), so
-/// nothing is located: inverting each hit again was a quarter of a boxturb48
-/// iso frame. Coordinates outside the cell (a root search that did not
-/// converge, in a badly shaped cell) are located again.
+/// the cell's shape functions there, to interpolate any per-vertex quantity
+/// at an isosurface hit (smooth normals, colour by another array). NaN
+/// weights where a location fails (a hex inversion that did not converge).
+/// `param`, if given and in the cell: the cell coordinates at `p`, known
+/// already (CellOps::keeps_param: the root search's), so nothing is
+/// located: inverting each hexahedral hit again was a quarter of a
+/// boxturb48 iso frame. Coordinates outside the cell (a root search that
+/// did not converge, in a badly shaped cell) are located again.
 template <int N> struct CellWeights {
   uint64_t v[N];
   float w[N];
 };
 template <int N>
 inline CellWeights<N> cell_weights(CellMesh<N> const& mesh, uint64_t cell, glm::vec3 const& p,
-                                   glm::vec3 const* hex_param = nullptr) {
-  auto trilinear = [](CellWeights<N>& out, glm::vec3 const& param) {
-    if constexpr (N == 8) trilinear_weights<scalar>(Vec3<scalar>{param.x, param.y, param.z}, out.w);
-  };
-  if constexpr (N == 8) {
-    if (hex_param && hex_param_in_cell<scalar>(Vec3<scalar>{hex_param->x, hex_param->y, hex_param->z})) {
-      CellWeights<N> out;
+                                   glm::vec3 const* param = nullptr) {
+  using Ops = CellOps<scalar, N>;
+  CellWeights<N> out;
+  if constexpr (Ops::keeps_param) {
+    if (param && Ops::param_in_cell(Vec3<scalar>{param->x, param->y, param->z})) {
       for (int i = 0; i < N; ++i) out.v[i] = mesh.vertex(cell, i);
-      trilinear(out, *hex_param);
+      Ops::shape_weights(Vec3<scalar>{param->x, param->y, param->z}, out.w);
       return out;
     }
   }
@@ -111,17 +109,12 @@ inline CellWeights<N> cell_weights(CellMesh<N> const& mesh, uint64_t cell, glm::
   read_corner_values(mesh, cell, k);
   order_corners(mesh.vertex_count(), k);
   CellCorners<scalar, N> const c = broadcast<scalar, N>(mesh, k);
-  Located<scalar> const at = CellOps<scalar, N>::locate(PointBatch<scalar>{p.x, p.y, p.z}, c);
-  CellWeights<N> out;
+  Located<scalar> const at = Ops::locate(PointBatch<scalar>{p.x, p.y, p.z}, c);
   for (int i = 0; i < N; ++i) out.v[i] = k.v[i];
-  if constexpr (N == 4) {
-    out.w[1] = at.param.x, out.w[2] = at.param.y, out.w[3] = at.param.z;
-    out.w[0] = 1.f - out.w[1] - out.w[2] - out.w[3];
-  } else if (!at.converged || !std::isfinite(at.param.x + at.param.y + at.param.z)) {
+  if (!at.converged || !std::isfinite(at.param.x + at.param.y + at.param.z))
     for (float& x : out.w) x = std::numeric_limits<float>::quiet_NaN();
-  } else {
-    trilinear(out, {at.param.x, at.param.y, at.param.z});
-  }
+  else
+    Ops::shape_weights(at.param, out.w);
   return out;
 }
 
@@ -129,13 +122,13 @@ inline CellWeights<N> cell_weights(CellMesh<N> const& mesh, uint64_t cell, glm::
 /// location: the smooth shading normal facing against `dir` (if `normal`;
 /// GradientMethod::smooth: the vertex gradients interpolated, or the cell's
 /// analytic normal where that is NaN or zero) and the colour array's value
-/// (if `value`; NaN where a corner is NaN). `hex_param`: see cell_weights.
+/// (if `value`; NaN where a corner is NaN). `param`: see cell_weights.
 inline void hit_attributes(PreparedPart const& part, uint64_t slot, glm::vec3 const& p, glm::vec3 const& dir,
-                           glm::vec3* normal, float* value, glm::vec3 const* hex_param = nullptr) {
+                           glm::vec3* normal, float* value, glm::vec3 const* param = nullptr) {
   uint64_t const cell = part.tree.item(slot);
   glm::vec3 g(0.f);
   auto interpolate = [&](auto const& mesh) {
-    auto const cw = cell_weights(mesh, cell, p, hex_param);
+    auto const cw = cell_weights(mesh, cell, p, param);
     float v = 0.f;
     for (int i = 0; i < std::decay_t<decltype(mesh)>::corners; ++i) {
       if (normal)
@@ -173,20 +166,19 @@ inline vmask<A> hit_attributes_packet(PreparedPart const& part, CellMesh<N> cons
   if (!mesh.has_32bit_indices() || !(mesh.cell_count() * N < lim) || !(mesh.vertex_count() * 3 < lim))
     return simd::no_lanes<A>();
   vint<A> const cells = simd::select(simd::to_int_mask(lanes), slot_cells<A>(part.tree, slots, lanes), vint<A>(0));
+  using Ops = CellOps<A, N>;
   vfloat<A> w[N];
   vint<A> id[N];
-  if constexpr (N == 4) {
-    CellCorners<A, 4> const c = gather_corners<A, 4>(mesh, cells, lanes);  // c.id: vertex ids (fast gathers)
-    Located<A> const at = locate_tet<A>(PointBatch<A>{pos.x, pos.y, pos.z}, c);
-    w[1] = at.param.x, w[2] = at.param.y, w[3] = at.param.z;
-    w[0] = vfloat<A>(1.f) - w[1] - w[2] - w[3];
-    for (int i = 0; i < 4; ++i) id[i] = c.id[i];
-  } else {
-    lanes = lanes && hex_param_in_cell<A>(param);
+  if constexpr (Ops::keeps_param) {
+    lanes = lanes && Ops::param_in_cell(param);
     if (simd::none(lanes)) return lanes;
-    trilinear_weights<A>(param, w);
+    Ops::shape_weights(param, w);
     auto const* idx = reinterpret_cast<int32_t const*>(mesh.indices32());
     for (int i = 0; i < N; ++i) id[i] = simd::gather(idx, cells * vint<A>(N) + vint<A>(i));
+  } else {
+    CellCorners<A, N> const c = gather_corners<A, N>(mesh, cells, lanes);  // c.id: vertex ids (fast gathers)
+    Ops::shape_weights(Ops::locate(PointBatch<A>{pos.x, pos.y, pos.z}, c).param, w);
+    for (int i = 0; i < N; ++i) id[i] = c.id[i];
   }
   Vec3<A> g{vfloat<A>(0.f), vfloat<A>(0.f), vfloat<A>(0.f)};
   vfloat<A> sum(0.f);

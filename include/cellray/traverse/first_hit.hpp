@@ -107,19 +107,18 @@ template <class A, int N> struct FirstHitQuery {
   }
 
   /// Iso roots in one cell per lane (item-list slots `slots`) for lanes `m`,
-  /// keeping the gradient at each hit when asked (hexes need the hit's
-  /// trilinear coordinates for it; a tet's is one per cell).
+  /// keeping the gradient at each hit when asked (at the hit's cell
+  /// coordinates where the type keeps them).
   void cell_hits(CellCorners<A, N> const& c, vmask<A> const& m, vint<A> const& slots) {
+    using Ops = CellOps<A, N>;
     Vec3<A> u{};
-    bool const hex_param = N == 8 && (want_gradient || want_param);
+    bool const keep_param = Ops::keeps_param && (want_gradient || want_param);
     CellIsoHit<A> const h =
-        iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method, hex_param ? &u : nullptr);
+        iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method, keep_param ? &u : nullptr);
     if (simd::none(h.hit)) return;
     update(h.hit, h.t, h.iso_index, slots);
-    if (N == 8 && want_param) param = select<A>(h.hit, u, param);
-    if (!want_gradient) return;
-    if constexpr (N == 8) grad = select<A>(h.hit, gradient_hex(c, u), grad);
-    else grad = select<A>(h.hit, gradient_tet(c), grad);
+    if (Ops::keeps_param && want_param) param = select<A>(h.hit, u, param);
+    if (want_gradient) grad = select<A>(h.hit, Ops::gradient_at(c, u), grad);
   }
 };
 

@@ -102,7 +102,7 @@ template <class A, int N> struct SampleQuery {
     vfloat<A> t_in(-std::numeric_limits<float>::infinity()), t_out(std::numeric_limits<float>::infinity());
     vfloat<A> clip_in = t_in, clip_out = t_out;
     vfloat<A> s_in(0.f), s_slope(0.f);  // tets: the field along the ray, s_in + (t - clip_in) s_slope
-    bool const by_clip = N == 4 && (group > 1 || want_interval);
+    bool const by_clip = Ops::linear_on_ray && (group > 1 || want_interval);
     if (group > 1 || want_interval) {
       typename Ops::Clip const k = Ops::clip(ray_batch(r), c);
       if (by_clip) {
@@ -158,9 +158,7 @@ template <class A, int N> struct SampleQuery {
       pending[g] &= ~found;
       if (want_interval) store_lanes(found, clip_in, cell_in[g]), store_lanes(found, clip_out, cell_out[g]);
       if (want_gradient) {
-        Vec3<A> gr;
-        if constexpr (N == 4) gr = gradient_tet(c);
-        else gr = gradient_hex(c, loc.param);
+        Vec3<A> const gr = Ops::gradient_at(c, by_clip ? Vec3<A>{} : loc.param);
         store_lanes(found, gr.x, grad[0][g]), store_lanes(found, gr.y, grad[1][g]), store_lanes(found, gr.z, grad[2][g]);
       }
     }

@@ -126,19 +126,6 @@ template <class A, int N> struct SegmentQuery {
     return far;
   }
 
-  /// The hex field on the ray at lambda (see the file comment): value and
-  /// trilinear coordinates. A lane whose inversion neither converges nor
-  /// stays near the cell keeps the parametric guess (never a wild value).
-  static vfloat<A> hex_on_ray(RayBatch<A> const& ray, CellCorners<A, 8> const& c, HexClip<A> const& k,
-                              vmask<A> const& lanes, float lam, Vec3<A>& u) {
-    vfloat<A> const l(lam);
-    Vec3<A> const guess = k.u_in + l * (k.u_out - k.u_in);
-    vmask<A> conv;
-    u = isa_detail::invert_hex(c, ray.origin() + (k.t_in + l * (k.t_out - k.t_in)) * ray.dir(), guess, lanes, 6, conv);
-    u = select<A>(conv || isa_detail::in_unit_cube<A>(u, 0.05f), u, guess);
-    return isa_detail::trilerp<A>(c.s, u);
-  }
-
   /// `m`: the lanes whose window may cross the cell (its value range is
   /// visible there; see leaf and leaf_items).
   void visit(CellCorners<A, N> const& c, vmask<A> m, vint<A> const& cells) {
@@ -150,37 +137,19 @@ template <class A, int N> struct SegmentQuery {
     m = k.hit && !has_nan_value(c);
     uint32_t const mb = simd::movemask(m);
     if (!mb) return;
-    vfloat<A> const zero(0.f);
-    // value[] and gradient[] coefficients per lane.
-    vfloat<A> cv[4] = {k.s_in, k.s_out - k.s_in, zero, zero};
-    vfloat<A> cg[3][4];  // set and read only with gradients (zeroing it was a `rep stos` per cell)
-    if constexpr (N == 8) {
-      Vec3<A> u1, u2;
-      vfloat<A> const v1 = hex_on_ray(ray, c, k, m, 1.f / 3.f, u1), v2 = hex_on_ray(ray, c, k, m, 2.f / 3.f, u2);
-      isa_detail::Cubic<A> const f = isa_detail::cubic_through<A>(k.s_in, v1, v2, k.s_out);
-      cv[0] = f.c0, cv[1] = f.c1, cv[2] = f.c2, cv[3] = f.c3;
-      if (gradients) {
-        Vec3<A> const g0 = isa_detail::hex_world_gradient(c, k.u_in), g1 = isa_detail::hex_world_gradient(c, u1);
-        Vec3<A> const g2 = isa_detail::hex_world_gradient(c, u2), g3 = isa_detail::hex_world_gradient(c, k.u_out);
-        isa_detail::Cubic<A> const gx = isa_detail::cubic_through<A>(g0.x, g1.x, g2.x, g3.x);
-        isa_detail::Cubic<A> const gy = isa_detail::cubic_through<A>(g0.y, g1.y, g2.y, g3.y);
-        isa_detail::Cubic<A> const gz = isa_detail::cubic_through<A>(g0.z, g1.z, g2.z, g3.z);
-        isa_detail::Cubic<A> const* gc[3] = {&gx, &gy, &gz};
-        for (int a = 0; a < 3; ++a) cg[a][0] = gc[a]->c0, cg[a][1] = gc[a]->c1, cg[a][2] = gc[a]->c2, cg[a][3] = gc[a]->c3;
-      }
-    } else if (gradients) {
-      Vec3<A> const g = gradient_tet(c);
-      cg[0][0] = g.x, cg[1][0] = g.y, cg[2][0] = g.z;
-      for (int a = 0; a < 3; ++a) cg[a][1] = cg[a][2] = cg[a][3] = zero;
-    }
+    isa_detail::Cubic<A> f, g[3];
+    Ops::segment_field(ray, c, k, m, f, gradients ? g : nullptr);
     auto const tin = simd::to_array<A>(k.t_in), tout = simd::to_array<A>(k.t_out);
     auto const sin = simd::to_array<A>(k.s_in), sout = simd::to_array<A>(k.s_out);
     auto const cell = simd::to_array<A>(cells);
+    auto coefficients = [](isa_detail::Cubic<A> const& p, std::array<float, W> (&out)[4]) {
+      out[0] = simd::to_array<A>(p.c0), out[1] = simd::to_array<A>(p.c1);
+      out[2] = simd::to_array<A>(p.c2), out[3] = simd::to_array<A>(p.c3);
+    };
     std::array<float, W> va[4], ga[3][4];
-    for (int i = 0; i < 4; ++i) va[i] = simd::to_array<A>(cv[i]);
+    coefficients(f, va);
     if (gradients)
-      for (int a = 0; a < 3; ++a)
-        for (int i = 0; i < 4; ++i) ga[a][i] = simd::to_array<A>(cg[a][i]);
+      for (int a = 0; a < 3; ++a) coefficients(g[a], ga[a]);
     bool cut_fell = false;
     for (uint32_t b = mb; b; b &= b - 1) {
       int const l = __builtin_ctz(b);
@@ -188,7 +157,7 @@ template <class A, int N> struct SegmentQuery {
       // Tets are linear along the ray: the segment's values lie between its
       // end values, so a transparent range is skipped here too. Hexes may
       // exceed their end values inside; they are always kept.
-      if (N == 4 && !windows.overlaps(vmin, vmax)) continue;
+      if (Ops::linear_on_ray && !windows.overlaps(vmin, vmax)) continue;
       float const before = cut[l];
       int const i = slot(l, tin[l]);
       cut_fell = cut_fell || cut[l] < before;
