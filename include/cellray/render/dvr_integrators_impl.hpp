@@ -311,7 +311,7 @@ void march_piece(RayBatch<A> const& ray, typename CellMarch<A, N>::Step const& s
                  MarchPiece<A>& pc) {
   pc.a = st.a, pc.e = st.e, pc.t_in = st.k.t_in, pc.t_out = st.k.t_out, pc.go = go;
   // Not CellOps::segment_field, though it computes the same: through it hex
-  // DVR measured 4-7% slower (GCC 12, AVX-512), with or without forced
+  // DVR measured 5-13% slower (GCC 12, AVX-512), with or without forced
   // inlining; the cause was not found (docs/performance.md).
   vfloat<A> const zero(0.f);
   if constexpr (N == 8) {

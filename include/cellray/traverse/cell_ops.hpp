@@ -28,11 +28,9 @@ template <class A> struct CellOps<A, 4> {
   /// A hit or located point has no cell coordinates worth keeping.
   static constexpr bool keeps_param = false;
   static Clip clip(RayBatch<A> const& r, CellCorners<A, 4> const& c) { return clip_tet(r, c); }
-  /// `exit_face`, if given: per hit lane, the face the ray leaves through
-  /// (FaceNeighbours' numbering; where a march goes next).
   static Clip clip_window(RayBatch<A> const& r, CellCorners<A, 4> const& c, vmask<A> const& lanes,
-                          vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face = nullptr) {
-    return clip_tet_window(r, c, lanes, t_lo, t_hi, exit_face);
+                          vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
+    return clip_tet_window(r, c, lanes, t_lo, t_hi);
   }
   /// `param` is for hexes (hit coordinates); tets leave it alone.
   /// `t_from` is for hexes too: a tet holds one crossing per isovalue.
@@ -81,8 +79,8 @@ template <class A> struct CellOps<A, 8> {
   static constexpr bool keeps_param = true;
   static Clip clip(RayBatch<A> const& r, CellCorners<A, 8> const& c) { return clip_hex(r, c); }
   static Clip clip_window(RayBatch<A> const& r, CellCorners<A, 8> const& c, vmask<A> const& lanes,
-                          vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face = nullptr) {
-    return clip_hex_window(r, c, lanes, t_lo, t_hi, exit_face);
+                          vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
+    return clip_hex_window(r, c, lanes, t_lo, t_hi);
   }
   /// `param`, if given, receives the trilinear coordinates of the hit in
   /// hit lanes (iso_root_hex's; for Neubauer one inversion at the root).
@@ -140,7 +138,8 @@ template <class A> struct CellOps<A, 8> {
   static void segment_field(RayBatch<A> const& ray, CellCorners<A, 8> const& c, Clip const& k,
                             vmask<A> const& lanes, isa_detail::Cubic<A>& f, isa_detail::Cubic<A>* g) {
     Vec3<A> u1, u2;
-    vfloat<A> const v1 = field_on_ray(ray, c, k, lanes, 1.f / 3.f, u1), v2 = field_on_ray(ray, c, k, lanes, 2.f / 3.f, u2);
+    vfloat<A> const v1 = field_on_ray(ray, c, k, lanes, 1.f / 3.f, u1);
+    vfloat<A> const v2 = field_on_ray(ray, c, k, lanes, 2.f / 3.f, u2);
     f = isa_detail::cubic_through<A>(k.s_in, v1, v2, k.s_out);
     if (g) {
       Vec3<A> const g0 = isa_detail::hex_world_gradient(c, k.u_in), g1 = isa_detail::hex_world_gradient(c, u1);

@@ -40,7 +40,8 @@ inline namespace CELLRAY_ISA_NS {
 /// corner values (the shape functions are a convex combination).
 template <class A, int N>
 inline vmask<A> visible_values(ValueWindows const& w, CellCorners<A, N> const& c, CellClip<A> const& k) {
-  if constexpr (CellOps<A, N>::linear_on_ray) return windows_overlap<A>(w, simd::min(k.s_in, k.s_out), simd::max(k.s_in, k.s_out));
+  if constexpr (CellOps<A, N>::linear_on_ray)
+    return windows_overlap<A>(w, simd::min(k.s_in, k.s_out), simd::max(k.s_in, k.s_out));
   vfloat<A> vmin = c.s[0], vmax = c.s[0];
   for (int i = 1; i < N; ++i) vmin = simd::min(vmin, c.s[i]), vmax = simd::max(vmax, c.s[i]);
   return windows_overlap<A>(w, vmin, vmax);
