@@ -111,10 +111,8 @@ void old_sample_points(PreparedScene const& s, float const* xyz, uint64_t n, flo
         rays[i] = Ray{{xyz[3 * (b + i)], xyz[3 * (b + i) + 1], xyz[3 * (b + i) + 2]}, 0.f, {1.f, 0.f, 0.f}, 0.f};
       }
       for (PreparedPart const& part : s.parts) {
-        if (part.tets)
-          dispatch<SampleEntry>(isa, part.tree, *part.tets, rays.data(), m, 0.f, 1, 1, Traversal::packet, ValueWindows{}, v.data());
-        else
-          dispatch<SampleEntry>(isa, part.tree, *part.hexes, rays.data(), m, 0.f, 1, 1, Traversal::packet, ValueWindows{}, v.data());
+        dispatch<SampleEntry>(isa, part.tree, part.mesh(), rays.data(), m, 0.f, 1, 1, Traversal::packet, ValueWindows{},
+                              v.data());
         for (uint64_t i = 0; i < m; ++i)
           if (!(out[b + i] == out[b + i])) out[b + i] = v[i];
       }
@@ -134,10 +132,7 @@ void run_variant(Variant var, Loaded const& m, float const* xyz, uint64_t n, flo
       break;
     case new_unsorted:
       detail::probe_in_order(xyz, n, out, s.lo, s.hi, false, [&](float const* p, uint64_t k, float* v) {
-        for (PreparedPart const& part : s.parts) {
-          if (part.tets) dispatch<ProbeEntry>(o.isa, part.tree, *part.tets, p, k, v);
-          else dispatch<ProbeEntry>(o.isa, part.tree, *part.hexes, p, k, v);
-        }
+        for (PreparedPart const& part : s.parts) dispatch<ProbeEntry>(o.isa, part.tree, part.mesh(), p, k, v);
       });
       break;
     case new_sorted: sample_points(m.scene, xyz, n, out, o); break;

@@ -12,6 +12,7 @@
 #include "../dispatch/dispatch.hpp"
 #include "../mesh/cell_boxes.hpp"
 #include "../mesh/cell_mesh.hpp"
+#include "../mesh/cell_types.hpp"
 #include "build_common.hpp"
 #include "build_median.hpp"
 #include "build_morton.hpp"
@@ -19,22 +20,10 @@
 
 namespace cellray {
 
-/// One piece of a multi-piece data set (a partition, or the tet or hex part
-/// of a mixed file): a reference to a tet or a hex mesh view. Holds a
-/// pointer; the mesh must outlive the call it is passed to (not the BVH).
-class MeshPiece {
- public:
-  MeshPiece(TetMesh const& m) : tets_(&m) {}   // NOLINT: implicit on purpose
-  MeshPiece(HexMesh const& m) : hexes_(&m) {}  // NOLINT: implicit on purpose
-
-  uint64_t cell_count() const noexcept { return tets_ ? tets_->cell_count() : hexes_->cell_count(); }
-  /// Calls f(TetMesh const&) or f(HexMesh const&).
-  template <class F> decltype(auto) visit(F&& f) const { return tets_ ? f(*tets_) : f(*hexes_); }
-
- private:
-  TetMesh const* tets_ = nullptr;
-  HexMesh const* hexes_ = nullptr;
-};
+/// One piece of a multi-piece data set (a partition, or one cell type's
+/// part of a mixed file): a reference to a mesh view of any listed type.
+/// The mesh must outlive the call it is passed to (not the BVH).
+using MeshPiece = AnyCellMesh;
 
 namespace detail {
 
@@ -266,10 +255,7 @@ inline MinMaxBvh build_minmax_bvh(Span<ItemBox> boxes, BuildOptions const& opt =
 /// the mesh arrays are only read. Call `validate()` first for a full report.
 /// @throws InvalidMesh for a vertex id out of range or a non-finite position
 ///         (naming the cell); InvalidArgument for bad options.
-inline MinMaxBvh build_minmax_bvh(TetMesh const& mesh, BuildOptions const& opt = {}) {
-  return detail::build_pieces({MeshPiece(mesh)}, opt);
-}
-inline MinMaxBvh build_minmax_bvh(HexMesh const& mesh, BuildOptions const& opt = {}) {
+template <int N> MinMaxBvh build_minmax_bvh(CellMesh<N> const& mesh, BuildOptions const& opt = {}) {
   return detail::build_pieces({MeshPiece(mesh)}, opt);
 }
 

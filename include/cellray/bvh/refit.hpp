@@ -89,16 +89,12 @@ inline ValueRanges refit_ranges(MinMaxBvh const& bvh, std::vector<MeshPiece> con
   return r;
 }
 /// Single-mesh forms of the above (`mesh.with_array("t1")` or `with_values`).
-inline void refit_ranges(MinMaxBvh const& bvh, TetMesh const& mesh, ValueRanges& out, std::optional<Isa> isa = {}) {
+template <int N>
+void refit_ranges(MinMaxBvh const& bvh, CellMesh<N> const& mesh, ValueRanges& out, std::optional<Isa> isa = {}) {
   refit_ranges(bvh, std::vector<MeshPiece>{MeshPiece(mesh)}, out, isa);
 }
-inline void refit_ranges(MinMaxBvh const& bvh, HexMesh const& mesh, ValueRanges& out, std::optional<Isa> isa = {}) {
-  refit_ranges(bvh, std::vector<MeshPiece>{MeshPiece(mesh)}, out, isa);
-}
-inline ValueRanges refit_ranges(MinMaxBvh const& bvh, TetMesh const& mesh, std::optional<Isa> isa = {}) {
-  return refit_ranges(bvh, std::vector<MeshPiece>{MeshPiece(mesh)}, isa);
-}
-inline ValueRanges refit_ranges(MinMaxBvh const& bvh, HexMesh const& mesh, std::optional<Isa> isa = {}) {
+template <int N>
+ValueRanges refit_ranges(MinMaxBvh const& bvh, CellMesh<N> const& mesh, std::optional<Isa> isa = {}) {
   return refit_ranges(bvh, std::vector<MeshPiece>{MeshPiece(mesh)}, isa);
 }
 

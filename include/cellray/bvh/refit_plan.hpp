@@ -107,9 +107,7 @@ struct RefitPlanAccess {
   static std::vector<uint64_t> const& cell_offsets(RefitPlan const& p) { return p.cell_offsets_; }
 };
 
-inline uint64_t piece_vertex_count(MeshPiece const& p) {
-  return p.visit([](auto const& mesh) { return mesh.vertex_count(); });
-}
+inline uint64_t piece_vertex_count(MeshPiece const& p) { return p.vertex_count(); }
 
 /// Calls f(global vertex id) for every corner of item `id` (piece offsets
 /// applied). Throws InvalidMesh for a vertex id out of its piece's range.
@@ -445,10 +443,7 @@ inline void refit_with_plan(MinMaxBvh const& bvh, RefitPlan const& plan, std::ve
 inline RefitPlan make_refit_plan(MinMaxBvh const& bvh, std::vector<MeshPiece> const& pieces) {
   return detail::make_plan(bvh, pieces);
 }
-inline RefitPlan make_refit_plan(MinMaxBvh const& bvh, TetMesh const& mesh) {
-  return detail::make_plan(bvh, {MeshPiece(mesh)});
-}
-inline RefitPlan make_refit_plan(MinMaxBvh const& bvh, HexMesh const& mesh) {
+template <int N> RefitPlan make_refit_plan(MinMaxBvh const& bvh, CellMesh<N> const& mesh) {
   return detail::make_plan(bvh, {MeshPiece(mesh)});
 }
 
@@ -463,10 +458,8 @@ inline void refit_ranges(MinMaxBvh const& bvh, RefitPlan const& plan, std::vecto
                          ValueRanges& out) {
   detail::refit_with_plan(bvh, plan, pieces, out);
 }
-inline void refit_ranges(MinMaxBvh const& bvh, RefitPlan const& plan, TetMesh const& mesh, ValueRanges& out) {
-  detail::refit_with_plan(bvh, plan, {MeshPiece(mesh)}, out);
-}
-inline void refit_ranges(MinMaxBvh const& bvh, RefitPlan const& plan, HexMesh const& mesh, ValueRanges& out) {
+template <int N>
+void refit_ranges(MinMaxBvh const& bvh, RefitPlan const& plan, CellMesh<N> const& mesh, ValueRanges& out) {
   detail::refit_with_plan(bvh, plan, {MeshPiece(mesh)}, out);
 }
 

@@ -235,9 +235,10 @@ template <class A, int N> inline CellCorners<A, N> broadcast_corners(CellMesh<N>
 /// The corners of `cells[i]` in lane i (SPMD traversal). Inactive lanes load
 /// cell 0 (the mesh must not be empty); their contents are meaningless.
 /// Native gathers when offsets fit in 31 bits (cell*N and 3*vertex), else a
-/// scalar loop.
+/// scalar loop. Forced inline: see march_step (dvr_integrators_impl.hpp).
 template <class A, int N>
-inline CellCorners<A, N> gather_corners(CellMesh<N> const& mesh, vint<A> const& cells, vmask<A> const& active) {
+CELLRAY_FORCE_INLINE CellCorners<A, N> gather_corners(CellMesh<N> const& mesh, vint<A> const& cells,
+                                                      vmask<A> const& active) {
   CellCorners<A, N> c;
   vint<A> const cell = simd::select(simd::to_int_mask(active), cells, vint<A>(0));
   float const* xyz = mesh.positions();

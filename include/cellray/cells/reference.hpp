@@ -342,6 +342,242 @@ inline IsoRoot iso_root(Cell<N> const& cell, Ray const& ray, Clip const& c, floa
   return r;
 }
 
+
+// ------------------------------------------- the field along a ray (renderer)
+
+/// Shape-function weights of the corners (mesh order) at cell coordinates
+/// `param` (a Location's): barycentric in a tet, trilinear (clamped to the
+/// cube) in a hex.
+inline void shape_weights(Tet const&, dvec3 const& param, double (&w)[4]) {
+  w[1] = param.x, w[2] = param.y, w[3] = param.z, w[0] = 1 - w[1] - w[2] - w[3];
+}
+inline void shape_weights(Hex const&, dvec3 const& param, double (&w)[8]) {
+  dvec3 const u = glm::clamp(param, dvec3(0), dvec3(1));
+  for (int i = 0; i < 8; ++i)
+    w[i] = (detail::hex_uvw[i][0] ? u.x : 1 - u.x) * (detail::hex_uvw[i][1] ? u.y : 1 - u.y) *
+           (detail::hex_uvw[i][2] ? u.z : 1 - u.z);
+}
+
+/// Trilinear coordinates of world point p, Newton from `u` (the guess) with
+/// the multi-start fallback of locate. False when nothing converged.
+inline bool invert(Hex const& h, dvec3 const& p, dvec3& u) {
+  dvec3 v = u;
+  if (detail::newton(h, p, v, 40) && std::isfinite(v.x + v.y + v.z)) {
+    u = v;
+    return true;
+  }
+  Location const L = locate(h, p, &u);
+  if (L.converged) u = L.param;
+  return L.converged;
+}
+
+/// The hex field on the ray: value and d/dt at t, coordinates warm-started.
+struct RaySample {
+  double t = 0, f = 0, df = 0;
+  dvec3 u{0.5};
+};
+
+inline RaySample hex_sample(Hex const& h, Ray const& r, double t, dvec3 guess) {
+  RaySample s;
+  s.t = t;
+  s.u = guess;
+  if (!invert(h, r.o + t * r.d, s.u)) {
+    s.f = std::numeric_limits<double>::quiet_NaN();
+    return s;
+  }
+  s.f = value(h, s.u);
+  s.df = glm::dot(gradient(h, s.u), r.d);
+  return s;
+}
+
+/// Trilinear coordinates on the straight parametric segment between the
+/// clip's entry and exit: the warm start for the point at t.
+inline dvec3 hex_guess(Clip const& c, double t) {
+  double const lam = c.t_out > c.t_in ? std::clamp((t - c.t_in) / (c.t_out - c.t_in), 0.0, 1.0) : 0.5;
+  return c.u_in + lam * (c.u_out - c.u_in);
+}
+
+/// Samples of the field along the clip interval; the ends take the clip's
+/// face values (canonical: neighbours agree), derivatives by inversion.
+inline std::vector<RaySample> hex_ray_samples(Hex const& h, Ray const& r, Clip const& c, int m) {
+  std::vector<RaySample> s(size_t(m) + 1);
+  for (int i = 0; i <= m; ++i) {
+    double const t = i == m ? c.t_out : c.t_in + (c.t_out - c.t_in) * i / m;
+    s[size_t(i)] = hex_sample(h, r, t, i == 0 ? c.u_in : i == m ? c.u_out : hex_guess(c, t));
+  }
+  s.front().f = c.s_in;
+  s.back().f = c.s_out;
+  return s;
+}
+
+/// Bisection of (f(t) >= iso) between a and b (predicates differ at the
+/// ends; `fa_pos` is the predicate at a), to machine precision.
+inline double hex_bisect(Hex const& h, Ray const& r, Clip const& c, double a, double b, bool fa_pos,
+                         double iso) {
+  for (int k = 0; k < 200; ++k) {
+    double const m = 0.5 * (a + b);
+    if (m <= a || m >= b) break;
+    RaySample const s = hex_sample(h, r, m, hex_guess(c, m));
+    if ((s.f - iso >= 0) == fa_pos) a = m;
+    else b = m;
+  }
+  return 0.5 * (a + b);
+}
+
+/// Every crossing of `iso` in the clip interval, ascending: a sign change
+/// between samples bisected; each sample interval's Hermite cubic flags an
+/// interior extremum across iso, evaluated exactly, so a root pair closer
+/// than the sample spacing (a grazing ray) is still found.
+inline void hex_crossings(Hex const& h, Ray const& r, Clip const& c,
+                          std::vector<RaySample> const& s, double iso, std::vector<double>& out) {
+  for (size_t i = 0; i + 1 < s.size(); ++i) {
+    RaySample const& a = s[i];
+    RaySample const& b = s[i + 1];
+    if (std::isnan(a.f) || std::isnan(b.f)) continue;
+    bool const pa = a.f - iso >= 0, pb = b.f - iso >= 0;
+    if (pa != pb) {
+      out.push_back(hex_bisect(h, r, c, a.t, b.t, pa, iso));
+      continue;
+    }
+    // Same predicate at both ends: an interior extremum of the Hermite cubic
+    // on the other side of iso hints at a root pair; check it exactly.
+    double const len = b.t - a.t;
+    double const f0 = a.f - iso, f1 = b.f - iso, g0 = a.df * len, g1 = b.df * len;
+    // H(x) = f0 h00 + g0 h10 + f1 h01 + g1 h11; H'(x) = A x^2 + B x + C.
+    double const A = 6 * f0 + 3 * g0 - 6 * f1 + 3 * g1, B = -6 * f0 - 4 * g0 + 6 * f1 - 2 * g1, C = g0;
+    double xs[2];
+    int nx = 0;
+    if (A == 0) {
+      if (B != 0) xs[nx++] = -C / B;
+    } else {
+      double const disc = B * B - 4 * A * C;
+      if (disc >= 0) {
+        double const q = -0.5 * (B + std::copysign(std::sqrt(disc), B));
+        if (q != 0) xs[nx++] = C / q;
+        xs[nx++] = q / A;
+      }
+    }
+    double best_x = -1, best_v = 0;
+    for (int k = 0; k < nx; ++k) {
+      double const x = xs[k];
+      if (!(x > 0 && x < 1)) continue;
+      double const x2 = x * x, x3 = x2 * x;
+      double const v = f0 * (2 * x3 - 3 * x2 + 1) + g0 * (x3 - 2 * x2 + x) + f1 * (-2 * x3 + 3 * x2) + g1 * (x3 - x2);
+      if ((v >= 0) != pa && (best_x < 0 || std::abs(v) > std::abs(best_v))) best_x = x, best_v = v;
+    }
+    if (best_x < 0) continue;
+    double const tm = a.t + best_x * len;
+    RaySample const m = hex_sample(h, r, tm, hex_guess(c, tm));
+    if (std::isnan(m.f) || (m.f - iso >= 0) == pa) continue;
+    out.push_back(hex_bisect(h, r, c, a.t, tm, pa, iso));
+    out.push_back(hex_bisect(h, r, c, tm, b.t, !pa, iso));
+  }
+}
+
+/// What the reference renderer asks of a cell along one ray, per type (the
+/// renderer itself never branches on the type): the clip, the field and its
+/// gradient at t, every crossing of an isovalue, and where the field crosses
+/// given values (the transfer function's control points) on [a, b].
+template <int N> class FieldOnRay;
+
+/// A tet's field is linear along the ray: everything from the clip exactly.
+template <> class FieldOnRay<4> {
+ public:
+  /// `root_samples` is unused (a hex's sampling density for crossings).
+  FieldOnRay(Tet const& c, Ray const& r, int root_samples = 2) : c_(c), r_(r), k_(ref::clip(c, r)) { (void)root_samples; }
+  Clip const& clip() const { return k_; }
+  /// The value at t (on the clip's line) and the constant gradient; false never.
+  bool at(double t, double& value, dvec3* grad) const {
+    double const len = k_.t_out - k_.t_in;
+    value = len > 0 ? k_.s_in + (t - k_.t_in) / len * (k_.s_out - k_.s_in) : k_.s_in;
+    if (grad) *grad = gradient(c_);
+    return true;
+  }
+  dvec3 gradient_at(double) const { return gradient(c_); }
+  void crossings(double iso, std::vector<double>& out) const { out = ref::crossings(c_, r_, k_, iso); }
+  /// Appends where the field crosses each of `values` strictly inside (a, b).
+  void cuts(double a, double b, std::vector<float> const& values, std::vector<double>& out) const {
+    double va, vb;
+    at(a, va, nullptr), at(b, vb, nullptr);
+    for (float cv : values) {
+      double const v = double(cv);
+      if ((v > va && v < vb) || (v < va && v > vb)) out.push_back(a + (v - va) / (vb - va) * (b - a));
+    }
+  }
+
+ private:
+  Tet c_;
+  Ray r_;
+  Clip k_;
+};
+
+/// A hex's field along the ray is not a polynomial in t in general: values
+/// by inversion warm-started on the clip's parametric segment, crossings
+/// from `root_samples` samples shared by every isovalue (hex_crossings),
+/// control-value cuts from 8 samples bisected.
+template <> class FieldOnRay<8> {
+ public:
+  FieldOnRay(Hex const& h, Ray const& r, int root_samples = 2)
+      : h_(h), r_(r), k_(ref::clip(h, r)), root_samples_(std::max(2, root_samples)) {}
+  Clip const& clip() const { return k_; }
+  /// The value (and gradient) at t; false where the inversion fails.
+  bool at(double t, double& value, dvec3* grad) const {
+    dvec3 u = hex_guess(k_, t);
+    if (!invert(h_, r_.o + t * r_.d, u)) {
+      value = std::numeric_limits<double>::quiet_NaN();
+      return false;
+    }
+    value = ref::value(h_, u);
+    if (grad) *grad = gradient(h_, u);
+    return true;
+  }
+  /// The analytic gradient at t; zero where the inversion fails.
+  dvec3 gradient_at(double t) const {
+    dvec3 u(0.5);
+    if (k_.hit) u = hex_guess(k_, t);
+    return invert(h_, r_.o + t * r_.d, u) ? gradient(h_, u) : dvec3(0);
+  }
+  void crossings(double iso, std::vector<double>& out) const {
+    if (samples_.empty()) samples_ = hex_ray_samples(h_, r_, k_, root_samples_);
+    hex_crossings(h_, r_, k_, samples_, iso, out);
+  }
+  /// Cuts where the sampled field crosses a control value; kinks between
+  /// samples are left to the integrator's adaptive refinement.
+  void cuts(double a, double b, std::vector<float> const& values, std::vector<double>& out) const {
+    auto value = [&](double t) {
+      double v;
+      at(t, v, nullptr);
+      return v;
+    };
+    int const m = 8;
+    double tp = a, vp = value(a);
+    for (int i = 1; i <= m; ++i) {
+      double const t = a + (b - a) * i / m, v = value(t);
+      for (float cv : values) {
+        double const c = double(cv);
+        if (std::isnan(vp) || std::isnan(v) || !((c > vp && c < v) || (c < vp && c > v))) continue;
+        double lo = tp, hi = t;
+        bool const lo_below = vp < c;
+        for (int it = 0; it < 60; ++it) {
+          double const mid = 0.5 * (lo + hi);
+          if (!(mid > lo && mid < hi)) break;
+          if ((value(mid) < c) == lo_below) lo = mid;
+          else hi = mid;
+        }
+        out.push_back(0.5 * (lo + hi));
+      }
+      tp = t, vp = v;
+    }
+  }
+
+ private:
+  Hex h_;
+  Ray r_;
+  Clip k_;
+  int root_samples_;
+  mutable std::vector<RaySample> samples_;
+};
+
 }  // namespace ref
 }  // namespace CELLRAY_ISA_NS
 }  // namespace cellray

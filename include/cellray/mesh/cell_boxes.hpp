@@ -8,6 +8,7 @@
 
 #include "../dispatch/dispatch.hpp"
 #include "cell_mesh.hpp"
+#include "cell_types.hpp"
 
 namespace cellray {
 
@@ -28,15 +29,13 @@ static_assert(sizeof(ItemBox) == 32, "ItemBox is documented as 32 bytes");
 /// mesh without values gets the empty range). Single-threaded; callers split
 /// the cell range across threads.
 template <class Arch> struct CellBoxes {
-  static void run(TetMesh const& mesh, uint64_t begin, uint64_t end, ItemBox* out);
-  static void run(HexMesh const& mesh, uint64_t begin, uint64_t end, ItemBox* out);
+  static void run(AnyCellMesh mesh, uint64_t begin, uint64_t end, ItemBox* out);
 };
 CELLRAY_EXTERN_ENTRY(CellBoxes)
 
 /// Only value ranges (for a time-step refit): vmin/vmax per cell, NaN rule as above.
 template <class Arch> struct CellRanges {
-  static void run(TetMesh const& mesh, uint64_t begin, uint64_t end, float* vmin, float* vmax);
-  static void run(HexMesh const& mesh, uint64_t begin, uint64_t end, float* vmin, float* vmax);
+  static void run(AnyCellMesh mesh, uint64_t begin, uint64_t end, float* vmin, float* vmax);
 };
 CELLRAY_EXTERN_ENTRY(CellRanges)
 

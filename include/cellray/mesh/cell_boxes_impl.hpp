@@ -106,21 +106,12 @@ inline void boxes_and_ranges(CellMesh<N> const& mesh, uint64_t begin, uint64_t e
 }  // namespace impl
 }  // namespace CELLRAY_ISA_NS
 
-template <class Arch>
-void CellBoxes<Arch>::run(TetMesh const& mesh, uint64_t begin, uint64_t end, ItemBox* out) {
-  impl::boxes_and_ranges<Arch>(mesh, begin, end, out, nullptr, nullptr);
+template <class Arch> void CellBoxes<Arch>::run(AnyCellMesh mesh, uint64_t begin, uint64_t end, ItemBox* out) {
+  mesh.visit([&](auto const& m) { impl::boxes_and_ranges<Arch>(m, begin, end, out, nullptr, nullptr); });
 }
 template <class Arch>
-void CellBoxes<Arch>::run(HexMesh const& mesh, uint64_t begin, uint64_t end, ItemBox* out) {
-  impl::boxes_and_ranges<Arch>(mesh, begin, end, out, nullptr, nullptr);
-}
-template <class Arch>
-void CellRanges<Arch>::run(TetMesh const& mesh, uint64_t begin, uint64_t end, float* vmin, float* vmax) {
-  impl::boxes_and_ranges<Arch>(mesh, begin, end, nullptr, vmin, vmax);
-}
-template <class Arch>
-void CellRanges<Arch>::run(HexMesh const& mesh, uint64_t begin, uint64_t end, float* vmin, float* vmax) {
-  impl::boxes_and_ranges<Arch>(mesh, begin, end, nullptr, vmin, vmax);
+void CellRanges<Arch>::run(AnyCellMesh mesh, uint64_t begin, uint64_t end, float* vmin, float* vmax) {
+  mesh.visit([&](auto const& m) { impl::boxes_and_ranges<Arch>(m, begin, end, nullptr, vmin, vmax); });
 }
 
 }  // namespace cellray

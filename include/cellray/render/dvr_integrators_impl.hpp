@@ -165,8 +165,8 @@ inline void integrate_pieces(PreparedTf const& ptf, float step, float terminatio
 /// What cell-segment DVR reuses from packet to packet of a tile: the
 /// segment queries are large (max_segments per lane) and allocated once.
 template <class A> struct SegmentScratch {
-  std::unique_ptr<SegmentQuery<A, 4>> tet_query;
-  std::unique_ptr<SegmentQuery<A, 8>> hex_query;
+  template <int N> using QueryPtr = std::unique_ptr<SegmentQuery<A, N>>;
+  PerCellTypeTuple<QueryPtr> queries;  ///< one per cell type, made when first used
   std::vector<FieldSegment> lane_segs[width<A>];
 };
 
@@ -213,8 +213,9 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
     uint8_t const* order_of[W] = {};  // nullptr: seg_of is in order
     int seg_count[W] = {};
     for (PreparedPart const& part : s.parts) {
-      auto run = [&](auto const& mesh, auto& q) {
+      part.visit([&](auto const& mesh, auto const*) {
         constexpr int N = std::decay_t<decltype(mesh)>::corners;
+        auto& q = std::get<std::unique_ptr<SegmentQuery<A, N>>>(scratch.queries);
         if (!q) q = std::make_unique<SegmentQuery<A, N>>(part.tree, mesh, r, s.windows, lo, hi, shade);
         else q->reset(part.tree, mesh, r, lo, hi);
         collect_segments(*q, act, how, threshold);
@@ -223,9 +224,7 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
           if (single) seg_of[l] = q->seg[l], order_of[l] = q->order[l], seg_count[l] = q->count[l];
           else lane_segs[l].insert(lane_segs[l].end(), q->seg[l], q->seg[l] + q->count[l]);
         }
-      };
-      if (part.tets) run(*part.tets, scratch.tet_query);
-      else run(*part.hexes, scratch.hex_query);
+      });
     }
     uint32_t next = 0;
     for (uint32_t b = live; b; b &= b - 1) {
@@ -337,10 +336,13 @@ void march_piece(RayBatch<A> const& ray, typename CellMarch<A, N>::Step const& s
 }
 
 /// One step of a one-type march: the lanes of `has` move one cell;
-/// `open` are the lanes still gathering opacity.
+/// `open` are the lanes still gathering opacity. Forced inline, with
+/// CellMarch::step and gather_corners: GCC inlined them into the hex march
+/// only while the unit stayed small, and an unrelated change elsewhere
+/// (the cell-type visits) made it outline them: boxturb48 DVR 0.92x.
 template <class A, int N>
-void march_step(CellMarch<A, N>& m, RayBatch<A> const& ray, vmask<A> const& has, vmask<A> const& open, bool shade,
-                MarchPiece<A>& pc) {
+CELLRAY_FORCE_INLINE void march_step(CellMarch<A, N>& m, RayBatch<A> const& ray, vmask<A> const& has,
+                                     vmask<A> const& open, bool shade, MarchPiece<A>& pc) {
   typename CellMarch<A, N>::Step const st = m.step(has, shade);
   pc.go = st.visible && open;
   if (simd::any(pc.go)) march_piece<A, N>(ray, st, pc.go, shade, pc);
@@ -509,7 +511,7 @@ void integrate_samples(PreparedScene const& s, RayPacket<A> const& r, vmask<A> c
       }
     for (size_t pi = 0; pi < s.parts.size(); ++pi) {
       PreparedPart const& part = s.parts[pi];
-      auto run = [&](auto const& mesh) {
+      part.visit([&](auto const& mesh, auto const*) {
         constexpr int N = std::decay_t<decltype(mesh)>::corners;
         SampleQuery<A, N> q(part.tree, mesh, r, s.windows, t0, step, G, active);
         q.cull = &cull[pi];
@@ -522,9 +524,7 @@ void integrate_samples(PreparedScene const& s, RayPacket<A> const& r, vmask<A> c
             values[g][l] = q.values[g][l], cin[g][l] = q.cell_in[g][l], cout[g][l] = q.cell_out[g][l];
             if (shade) grad[0][g][l] = q.grad[0][g][l], grad[1][g][l] = q.grad[1][g][l], grad[2][g][l] = q.grad[2][g][l];
           }
-      };
-      if (part.tets) run(*part.tets);
-      else run(*part.hexes);
+      });
     }
     for (int g = 0; g < G; ++g) {
       vfloat<A> const t = t0 + vfloat<A>(step * float(g));

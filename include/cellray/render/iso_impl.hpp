@@ -67,17 +67,25 @@ inline SceneHit<A> nearest_hit(PreparedScene const& s, RayPacket<A> const& r, vm
   best.iso = best.item = best.part = vint<A>(-1);
   for (size_t p = 0; p < s.parts.size(); ++p) {
     PreparedPart const& part = s.parts[p];
-    if (part.tets) hit_part<A>(part, *part.tets, r, active, isos, roots, how, threshold, int(p), best, gradient, param);
-    else hit_part<A>(part, *part.hexes, r, active, isos, roots, how, threshold, int(p), best, gradient, param);
+    part.visit([&](auto const& mesh, auto const*) {
+      hit_part<A>(part, mesh, r, active, isos, roots, how, threshold, int(p), best, gradient, param);
+    });
   }
   return best;
+}
+
+/// Whether the part's hits bring their cell coordinates (CellOps::keeps_param).
+inline bool keeps_param(PreparedPart const& part) {
+  return part.visit([](auto const& mesh, auto const*) {
+    return CellOps<scalar, std::decay_t<decltype(mesh)>::corners>::keeps_param;
+  });
 }
 
 /// Unit shading normal at a hit point `p` (two-sided: faces against `dir`).
 inline glm::vec3 normal_at(PreparedPart const& part, uint64_t slot, glm::vec3 p, glm::vec3 dir, GradientMethod m) {
   uint64_t const cell = part.tree.item(slot);
   Ray const at_hit{p, 0.f, dir, 0.f};  // t = 0 is the hit point itself
-  return part.tets ? hit_normal(*part.tets, cell, at_hit, 0.f, m) : hit_normal(*part.hexes, cell, at_hit, 0.f, m);
+  return part.visit([&](auto const& mesh, auto const*) { return hit_normal(mesh, cell, at_hit, 0.f, m); });
 }
 
 /// Where `p` lies in `cell`: its vertex ids in the kernels' corner order and
@@ -127,7 +135,7 @@ inline void hit_attributes(PreparedPart const& part, uint64_t slot, glm::vec3 co
                            glm::vec3* normal, float* value, glm::vec3 const* param = nullptr) {
   uint64_t const cell = part.tree.item(slot);
   glm::vec3 g(0.f);
-  auto interpolate = [&](auto const& mesh) {
+  part.visit([&](auto const& mesh, auto const*) {
     auto const cw = cell_weights(mesh, cell, p, param);
     float v = 0.f;
     for (int i = 0; i < std::decay_t<decltype(mesh)>::corners; ++i) {
@@ -136,9 +144,7 @@ inline void hit_attributes(PreparedPart const& part, uint64_t slot, glm::vec3 co
       if (value) v += cw.w[i] * part.color_values[cw.v[i]];
     }
     if (value) *value = v;
-  };
-  if (part.tets) interpolate(*part.tets);
-  else interpolate(*part.hexes);
+  });
   if (!normal) return;
   float const gg = glm::dot(g, g);
   if (!(gg > 0.f) || !std::isfinite(gg)) {
@@ -224,15 +230,13 @@ inline vfloat<A> values_at(PreparedScene const& s, RayPacket<A> const& r, vfloat
   alignas(64) float out[W];
   for (int l = 0; l < W; ++l) out[l] = std::numeric_limits<float>::quiet_NaN();
   for (PreparedPart const& part : s.parts) {
-    auto run = [&](auto const& mesh) {
+    part.visit([&](auto const& mesh, auto const*) {
       constexpr int N = std::decay_t<decltype(mesh)>::corners;
       SampleQuery<A, N> q(part.tree, mesh, r, everything, t, 0.f, 1, lanes);
       sample_group(q, lanes, how, threshold);
       for (int l = 0; l < W; ++l)
         if (!(out[l] == out[l])) out[l] = q.values[0][l];
-    };
-    if (part.tets) run(*part.tets);
-    else run(*part.hexes);
+    });
   }
   return simd::load<A>(out);
 }
@@ -258,13 +262,14 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
   // Smooth normals and colour by another array interpolate at the hit;
   // hexahedra bring the hit's coordinates from the root search for it.
   bool const attributes = smooth || s.color_by;
-  bool const hex_attributes =
-      attributes && std::any_of(s.parts.begin(), s.parts.end(), [](PreparedPart const& q) { return q.hexes; });
+  bool const param_attributes = attributes && std::any_of(s.parts.begin(), s.parts.end(), keeps_param);
   // Any-hit shadow rays need one opacity for every surface (see the shadow block).
   bool const secondary = p.shadows || p.ao_samples > 0;
-  // AO rays march from their hit cells where the scene allows (one tet part
-  // with face neighbours); elsewhere `march` is `grouped`.
-  bool const march_ao = o.secondary_query == SecondaryQuery::march && s.parts.size() == 1 && s.parts[0].neighbours;
+  // AO rays march from their hit cells where the scene allows (one part with
+  // face neighbours, of tets: march_occluded is written for tets only);
+  // elsewhere `march` is `grouped`.
+  PartCells<4> const* const ao_tets = s.parts.size() == 1 ? s.parts[0].cells_of<4>() : nullptr;
+  bool const march_ao = o.secondary_query == SecondaryQuery::march && ao_tets && ao_tets->neighbours;
   bool one_opacity = true;
   for (IsoSurface const& surf : p.surfaces) one_opacity = one_opacity && surf.opacity == p.surfaces[0].opacity;
   vfloat<A> const zero(0.f), one(1.f);
@@ -321,7 +326,7 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
       // Front-to-back layers: continue behind semi-transparent surfaces.
       for (int layer = 0; layer < 16 && live; ++layer) {
         SceneHit<A> const h = nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots, o.traversal, threshold,
-                                             query_gradient, hex_attributes);
+                                             query_gradient, param_attributes);
         vmask<A> const hit = simd::mask_from_bits<A>(live) && simd::to_float_mask(h.item >= vint<A>(0));
         uint32_t hit_bits = simd::movemask(hit);
         if (!hit_bits) break;
@@ -354,18 +359,16 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
             PreparedPart const& pp = s.parts[pi];
             Vec3<A> n{};
             vfloat<A> v(0.f);
-            vmask<A> const done =
-                pp.tets ? hit_attributes_packet<A, 4>(pp, *pp.tets, in_part, h.item, hit_pos, h.param, dir, smooth,
-                                                      s.color_by, n, v)
-                        : hit_attributes_packet<A, 8>(pp, *pp.hexes, in_part, h.item, hit_pos, h.param, dir, smooth,
-                                                      s.color_by, n, v);
+            vmask<A> const done = pp.visit([&](auto const& mesh, auto const*) {
+              return hit_attributes_packet<A>(pp, mesh, in_part, h.item, hit_pos, h.param, dir, smooth, s.color_by, n, v);
+            });
             pn = select<A>(done, n, pn);
             pv = simd::select(done, v, pv);
             packet_done |= simd::movemask(done);
           }
           packet_normal[0] = simd::to_array<A>(pn.x), packet_normal[1] = simd::to_array<A>(pn.y),
           packet_normal[2] = simd::to_array<A>(pn.z), packet_value = simd::to_array<A>(pv);
-          if (hex_attributes && (hit_bits & ~packet_done))
+          if (param_attributes && (hit_bits & ~packet_done))
             param_a[0] = simd::to_array<A>(h.param.x), param_a[1] = simd::to_array<A>(h.param.y),
             param_a[2] = simd::to_array<A>(h.param.z);
         }
@@ -383,11 +386,12 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
             if (smooth) n = lane_vec<W>(packet_normal, l);
             if (s.color_by) colour_value = packet_value[size_t(l)];
           } else if (attributes) {  // one location of the hit for both
-            glm::vec3 const param = hit_part.hexes ? lane_vec<W>(param_a, l) : glm::vec3(0.f);
+            bool const with_param = keeps_param(hit_part);
+            glm::vec3 const param = with_param ? lane_vec<W>(param_a, l) : glm::vec3(0.f);
             hit_attributes(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l),
                            smooth ? lane_vec<W>(dir_a, l) : glm::vec3(0.f),  // dir_a is filled when normals are not analytic
                            smooth ? &n : nullptr, s.color_by ? &colour_value : nullptr,
-                           hit_part.hexes ? &param : nullptr);
+                           with_param ? &param : nullptr);
           }
           if (!query_gradient) {
             if (!smooth) n = normal_at(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l), lane_vec<W>(dir_a, l), p.normals);
@@ -476,7 +480,7 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
               RayPacket<A> const arp = load_rays<A>(ar, W);
               vmask<A> undecided;
               vfloat<A> t_done;
-              uint32_t const occ = simd::movemask(march_occluded<A>(part.tree, *part.tets, *part.neighbours, arp, lanes,
+              uint32_t const occ = simd::movemask(march_occluded<A>(part.tree, *ao_tets->mesh, *ao_tets->neighbours, arp, lanes,
                                                                     hit_cells, isos, p.roots, undecided, t_done)) &
                                    hit_bits;
               for (int l = 0; l < W; ++l)

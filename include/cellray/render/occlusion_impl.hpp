@@ -23,8 +23,9 @@ inline vmask<A> scene_occluded(PreparedScene const& s, RayPacket<A> const& r, vm
   for (PreparedPart const& part : s.parts) {
     vmask<A> const open = active && !occ;
     if (simd::none(open)) break;
-    occ = occ || (part.tets ? occluded_in<A>(part.tree, *part.tets, r, open, isos, roots, how, threshold)
-                            : occluded_in<A>(part.tree, *part.hexes, r, open, isos, roots, how, threshold));
+    occ = occ || part.visit([&](auto const& mesh, auto const*) {
+      return occluded_in<A>(part.tree, mesh, r, open, isos, roots, how, threshold);
+    });
   }
   return occ;
 }
@@ -65,8 +66,9 @@ inline void scene_occluded_sorted(PreparedScene const& s, Ray const* rays, int n
         r[k] = load_rays<A>(packet, cnt);
       }
       for (PreparedPart const& part : s.parts) {
-        if (part.tets) occluded_packets<A, K>(part.tree, *part.tets, r, pending, isos, roots);
-        else occluded_packets<A, K>(part.tree, *part.hexes, r, pending, isos, roots);
+        part.visit([&](auto const& mesh, auto const*) {
+          occluded_packets<A, K>(part.tree, mesh, r, pending, isos, roots);
+        });
       }
       for (int k = 0; k < K; ++k)
         for (uint32_t b = entry[k] & ~pending[k]; b; b &= b - 1) {

@@ -124,14 +124,9 @@ namespace ref_render {
 using dvec3 = glm::dvec3;
 constexpr double inf = std::numeric_limits<double>::infinity();
 
-/// One part of the scene as the reference reads it.
-struct Part {
-  TreeView tree;
-  TetMesh const* tets = nullptr;
-  HexMesh const* hexes = nullptr;
-  float const* gradients = nullptr;     ///< smooth normals: 3 per vertex
-  float const* color_values = nullptr;  ///< iso coloured by another array
-};
+/// One part of the scene as the reference reads it: the fast path's (its
+/// tree, mesh, gradients and colour array; face neighbours unused).
+using Part = PreparedPart;
 
 struct Setup {
   std::vector<Part> parts;
@@ -142,7 +137,7 @@ struct Setup {
 /// From the fast path's preparation (the same checks, clip and arrays).
 inline Setup prepare(PreparedScene const& s) {
   Setup out;
-  for (PreparedPart const& pp : s.parts) out.parts.push_back({pp.tree, pp.tets, pp.hexes, pp.gradients, pp.color_values});
+  out.parts = s.parts;
   out.diagonal = double(s.diagonal);
   out.clip = s.clip;
   return out;
@@ -158,14 +153,7 @@ inline bool weights_at(CellMesh<N> const& mesh, uint64_t cell, dvec3 const& q, d
   ref::Location const L = ref::locate(c, q);
   if (!L.converged || !std::isfinite(L.param.x + L.param.y + L.param.z)) return false;
   for (int i = 0; i < N; ++i) v[i] = c.id[i];
-  if constexpr (N == 4) {
-    w[1] = L.param.x, w[2] = L.param.y, w[3] = L.param.z, w[0] = 1 - w[1] - w[2] - w[3];
-  } else {
-    dvec3 const u = glm::clamp(L.param, dvec3(0), dvec3(1));
-    for (int i = 0; i < 8; ++i)
-      w[i] = (ref::detail::hex_uvw[i][0] ? u.x : 1 - u.x) * (ref::detail::hex_uvw[i][1] ? u.y : 1 - u.y) *
-             (ref::detail::hex_uvw[i][2] ? u.z : 1 - u.z);
-  }
+  ref::shape_weights(c, L.param, w);
   return true;
 }
 
@@ -213,122 +201,6 @@ inline void visit_cells(TreeView const& tree, ref::Ray const& r, double t0, doub
   }
 }
 
-// ------------------------------------------------------------------ hexes
-
-/// Trilinear coordinates of world point p, Newton from `u` (the guess) with
-/// the multi-start fallback of ref::locate. False when nothing converged.
-inline bool invert(ref::Hex const& h, dvec3 const& p, dvec3& u) {
-  dvec3 v = u;
-  if (ref::detail::newton(h, p, v, 40) && std::isfinite(v.x + v.y + v.z)) {
-    u = v;
-    return true;
-  }
-  ref::Location const L = ref::locate(h, p, &u);
-  if (L.converged) u = L.param;
-  return L.converged;
-}
-
-/// The hex field on the ray: value and d/dt at t, coordinates warm-started.
-struct RaySample {
-  double t = 0, f = 0, df = 0;
-  dvec3 u{0.5};
-};
-
-inline RaySample hex_sample(ref::Hex const& h, ref::Ray const& r, double t, dvec3 guess) {
-  RaySample s;
-  s.t = t;
-  s.u = guess;
-  if (!invert(h, r.o + t * r.d, s.u)) {
-    s.f = std::numeric_limits<double>::quiet_NaN();
-    return s;
-  }
-  s.f = ref::value(h, s.u);
-  s.df = glm::dot(ref::gradient(h, s.u), r.d);
-  return s;
-}
-
-/// Trilinear coordinates on the straight parametric segment between the
-/// clip's entry and exit: the warm start for the point at t.
-inline dvec3 hex_guess(ref::Clip const& c, double t) {
-  double const lam = c.t_out > c.t_in ? std::clamp((t - c.t_in) / (c.t_out - c.t_in), 0.0, 1.0) : 0.5;
-  return c.u_in + lam * (c.u_out - c.u_in);
-}
-
-/// Samples of the field along the clip interval; the ends take the clip's
-/// face values (canonical: neighbours agree), derivatives by inversion.
-inline std::vector<RaySample> hex_ray_samples(ref::Hex const& h, ref::Ray const& r, ref::Clip const& c, int m) {
-  std::vector<RaySample> s(size_t(m) + 1);
-  for (int i = 0; i <= m; ++i) {
-    double const t = i == m ? c.t_out : c.t_in + (c.t_out - c.t_in) * i / m;
-    s[size_t(i)] = hex_sample(h, r, t, i == 0 ? c.u_in : i == m ? c.u_out : hex_guess(c, t));
-  }
-  s.front().f = c.s_in;
-  s.back().f = c.s_out;
-  return s;
-}
-
-/// Bisection of (f(t) >= iso) between a and b (predicates differ at the
-/// ends; `fa_pos` is the predicate at a), to machine precision.
-inline double hex_bisect(ref::Hex const& h, ref::Ray const& r, ref::Clip const& c, double a, double b, bool fa_pos,
-                         double iso) {
-  for (int k = 0; k < 200; ++k) {
-    double const m = 0.5 * (a + b);
-    if (m <= a || m >= b) break;
-    RaySample const s = hex_sample(h, r, m, hex_guess(c, m));
-    if ((s.f - iso >= 0) == fa_pos) a = m;
-    else b = m;
-  }
-  return 0.5 * (a + b);
-}
-
-/// Every crossing of `iso` in the clip interval, ascending (see the file
-/// comment for the method).
-inline void hex_crossings(ref::Hex const& h, ref::Ray const& r, ref::Clip const& c,
-                          std::vector<RaySample> const& s, double iso, std::vector<double>& out) {
-  for (size_t i = 0; i + 1 < s.size(); ++i) {
-    RaySample const& a = s[i];
-    RaySample const& b = s[i + 1];
-    if (std::isnan(a.f) || std::isnan(b.f)) continue;
-    bool const pa = a.f - iso >= 0, pb = b.f - iso >= 0;
-    if (pa != pb) {
-      out.push_back(hex_bisect(h, r, c, a.t, b.t, pa, iso));
-      continue;
-    }
-    // Same predicate at both ends: an interior extremum of the Hermite cubic
-    // on the other side of iso hints at a root pair; check it exactly.
-    double const len = b.t - a.t;
-    double const f0 = a.f - iso, f1 = b.f - iso, g0 = a.df * len, g1 = b.df * len;
-    // H(x) = f0 h00 + g0 h10 + f1 h01 + g1 h11; H'(x) = A x^2 + B x + C.
-    double const A = 6 * f0 + 3 * g0 - 6 * f1 + 3 * g1, B = -6 * f0 - 4 * g0 + 6 * f1 - 2 * g1, C = g0;
-    double xs[2];
-    int nx = 0;
-    if (A == 0) {
-      if (B != 0) xs[nx++] = -C / B;
-    } else {
-      double const disc = B * B - 4 * A * C;
-      if (disc >= 0) {
-        double const q = -0.5 * (B + std::copysign(std::sqrt(disc), B));
-        if (q != 0) xs[nx++] = C / q;
-        xs[nx++] = q / A;
-      }
-    }
-    double best_x = -1, best_v = 0;
-    for (int k = 0; k < nx; ++k) {
-      double const x = xs[k];
-      if (!(x > 0 && x < 1)) continue;
-      double const x2 = x * x, x3 = x2 * x;
-      double const v = f0 * (2 * x3 - 3 * x2 + 1) + g0 * (x3 - 2 * x2 + x) + f1 * (-2 * x3 + 3 * x2) + g1 * (x3 - x2);
-      if ((v >= 0) != pa && (best_x < 0 || std::abs(v) > std::abs(best_v))) best_x = x, best_v = v;
-    }
-    if (best_x < 0) continue;
-    double const tm = a.t + best_x * len;
-    RaySample const m = hex_sample(h, r, tm, hex_guess(c, tm));
-    if (std::isnan(m.f) || (m.f - iso >= 0) == pa) continue;
-    out.push_back(hex_bisect(h, r, c, a.t, tm, pa, iso));
-    out.push_back(hex_bisect(h, r, c, tm, b.t, !pa, iso));
-  }
-}
-
 // -------------------------------------------------------------- isosurfaces
 
 struct Crossing {
@@ -361,7 +233,7 @@ inline void iso_crossings(Setup const& s, ref::Ray const& r, double t_lo, double
   std::vector<double> xs;
   for (size_t pi = 0; pi < s.parts.size(); ++pi) {
     Part const& part = s.parts[pi];
-    auto run = [&](auto const& mesh) {
+    part.visit([&](auto const& mesh, auto const*) {
       constexpr int N = std::decay_t<decltype(mesh)>::corners;
       visit_cells(part.tree, r, t_lo, t_hi, keep, [&](uint64_t cell) {
         double lo, hi;
@@ -369,24 +241,19 @@ inline void iso_crossings(Setup const& s, ref::Ray const& r, double t_lo, double
         bool any = false;
         for (auto const& surf : p.surfaces) any = any || (surf.value >= lo && surf.value <= hi);
         if (!any) return;
-        ref::Cell<N> const c = ref::load(mesh, cell);
-        ref::Clip const k = ref::clip(c, r);
+        ref::FieldOnRay<N> const f(ref::load(mesh, cell), r, o.hex_root_samples);
+        ref::Clip const& k = f.clip();
         if (!k.hit || k.t_out < t_lo || k.t_in > t_hi) return;
-        std::vector<RaySample> samples;
-        if constexpr (N == 8) samples = hex_ray_samples(c, r, k, std::max(2, o.hex_root_samples));
         for (size_t iso = 0; iso < p.surfaces.size(); ++iso) {
           double const v = double(p.surfaces[iso].value);
           if (!(v >= lo && v <= hi)) continue;
           xs.clear();
-          if constexpr (N == 4) xs = ref::crossings(c, r, k, v);
-          else hex_crossings(c, r, k, samples, v, xs);
+          f.crossings(v, xs);
           for (double t : xs)
             if (t >= t_lo && t <= t_hi) out.push_back({t, int(iso), int(pi), cell});
         }
       });
-    };
-    if (part.tets) run(*part.tets);
-    else run(*part.hexes);
+    });
   }
   std::sort(out.begin(), out.end(), [](Crossing const& a, Crossing const& b) {
     return a.t < b.t || (a.t == b.t && a.iso < b.iso);
@@ -409,7 +276,7 @@ inline dvec3 exact_normal(Setup const& s, Crossing const& x, ref::Ray const& r) 
   dvec3 const p = r.o + x.t * r.d;
   dvec3 g(0);
   if (part.gradients) {  // smooth: the vertex gradients interpolated in the hit cell
-    auto interpolate = [&](auto const& mesh) {
+    g = part.visit([&](auto const& mesh, auto const*) {
       constexpr int N = std::decay_t<decltype(mesh)>::corners;
       double w[N];
       uint64_t v[N];
@@ -420,8 +287,7 @@ inline dvec3 exact_normal(Setup const& s, Crossing const& x, ref::Ray const& r) 
       else
         sum = dvec3(std::numeric_limits<double>::quiet_NaN());
       return sum;
-    };
-    g = part.tets ? interpolate(*part.tets) : interpolate(*part.hexes);
+    });
     double const gg = glm::dot(g, g);
     if (gg > 0 && std::isfinite(gg)) {
       dvec3 n = glm::normalize(-g);
@@ -429,15 +295,10 @@ inline dvec3 exact_normal(Setup const& s, Crossing const& x, ref::Ray const& r) 
     }
     g = dvec3(0);  // as the fast path: the cell's analytic normal instead
   }
-  if (part.tets) {
-    g = ref::gradient(ref::load(*part.tets, x.cell));
-  } else {
-    ref::Hex const h = ref::load(*part.hexes, x.cell);
-    dvec3 u(0.5);
-    ref::Clip const k = ref::clip(h, r);
-    if (k.hit) u = hex_guess(k, x.t);
-    if (invert(h, p, u)) g = ref::gradient(h, u);
-  }
+  g = part.visit([&](auto const& mesh, auto const*) {
+    constexpr int N = std::decay_t<decltype(mesh)>::corners;
+    return ref::FieldOnRay<N>(ref::load(mesh, x.cell), r).gradient_at(x.t);
+  });
   double const gg = glm::dot(g, g);
   dvec3 n = gg > 0 && std::isfinite(gg) ? -g : -r.d;
   n = glm::normalize(n);
@@ -450,7 +311,7 @@ inline dvec3 exact_normal(Setup const& s, Crossing const& x, ref::Ray const& r) 
 inline bool part_color(Setup const& s, Crossing const& x, dvec3 const& q, dvec3& base, TransferFunction const& colors) {
   Part const& part = s.parts[size_t(x.part)];
   if (!part.color_values) return false;
-  auto interpolate = [&](auto const& mesh) {
+  double const value = part.visit([&](auto const& mesh, auto const*) {
     constexpr int N = std::decay_t<decltype(mesh)>::corners;
     double w[N];
     uint64_t v[N];
@@ -458,8 +319,7 @@ inline bool part_color(Setup const& s, Crossing const& x, dvec3 const& q, dvec3&
     double sum = 0;
     for (int i = 0; i < N; ++i) sum += w[i] * double(part.color_values[v[i]]);
     return sum;
-  };
-  double const value = part.tets ? interpolate(*part.tets) : interpolate(*part.hexes);
+  });
   if (!std::isfinite(value)) return false;
   base = colors.values.empty() ? dvec3(0.75) : dvec3(colors(float(value)));
   return true;
@@ -471,15 +331,13 @@ inline bool value_at(Setup const& s, dvec3 const& q, double& v) {
   ref::Ray const r{q, dvec3(1, 0, 0)};
   bool found = false;
   for (Part const& part : s.parts) {
-    auto run = [&](auto const& mesh) {
+    part.visit([&](auto const& mesh, auto const*) {
       visit_cells(part.tree, r, 0.0, 0.0, [](float, float) { return true; }, [&](uint64_t cell) {
         if (found) return;
         ref::Location const L = ref::locate(ref::load(mesh, cell), q);
         if (L.inside && std::isfinite(L.value)) v = L.value, found = true;
       });
-    };
-    if (part.tets) run(*part.tets);
-    else run(*part.hexes);
+    });
     if (found) return true;
   }
   return false;
@@ -752,16 +610,14 @@ inline void dvr_pixel(Setup const& s, Camera const& cam, DvrParams const& p, Ref
   clip_span(s.clip, r.o, r.d, t0, t1, entry);
   for (size_t pi = 0; pi < s.parts.size() && t0 < t1; ++pi) {
     Part const& part = s.parts[pi];
-    auto run = [&](auto const& mesh) {
+    part.visit([&](auto const& mesh, auto const*) {
       visit_cells(part.tree, r, t0, t1, keep, [&](uint64_t cell) {
         double lo, hi;
         if (!cell_range(mesh, cell, lo, hi) || !(p.tf.max_alpha(float(lo), float(hi)) > 0.f)) return;
         ref::Clip const k = ref::clip(ref::load(mesh, cell), r);
         if (k.hit && k.t_out > 0) segs.push_back({std::max(0.0, k.t_in), k.t_out, int(pi), cell});
       });
-    };
-    if (part.tets) run(*part.tets);
-    else run(*part.hexes);
+    });
   }
   std::sort(segs.begin(), segs.end(), [](Segment const& a, Segment const& b) { return a.t_in < b.t_in; });
   bool const shade = p.shading.enabled;
@@ -778,66 +634,26 @@ inline void dvr_pixel(Setup const& s, Camera const& cam, DvrParams const& p, Ref
     prev = b;
     Part const& part = s.parts[size_t(sg.part)];
     cuts.assign({a, b});
-    if (part.tets) {
-      ref::Tet const c = ref::load(*part.tets, sg.cell);
-      ref::Clip const k = ref::clip(c, r);
-      double const len = k.t_out - k.t_in;
-      auto value = [&](double t) { return len > 0 ? k.s_in + (t - k.t_in) / len * (k.s_out - k.s_in) : k.s_in; };
-      // Linear along the segment: cut exactly at the control values.
-      double const va = value(a), vb = value(b);
-      for (float cv : p.tf.values) {
-        double const v = double(cv);
-        if ((v > va && v < vb) || (v < va && v > vb)) cuts.push_back(a + (v - va) / (vb - va) * (b - a));
-      }
+    part.visit([&](auto const& mesh, auto const*) {
+      constexpr int N = std::decay_t<decltype(mesh)>::corners;
+      ref::FieldOnRay<N> const f(ref::load(mesh, sg.cell), r);
+      // Cut where the field crosses a control value (tets: exactly, the
+      // value is linear along the segment).
+      f.cuts(a, b, p.tf.values, cuts);
       std::sort(cuts.begin(), cuts.end());
-      dvec3 const grad = shade ? ref::gradient(c) : dvec3(0);
       auto sample = [&](double t, double& cr, double& cg, double& cb, double& sigma) {
-        tf(value(t), cr, cg, cb, sigma);
+        double v;
+        dvec3 grad;
+        if (!f.at(t, v, shade ? &grad : nullptr)) {
+          cr = cg = cb = sigma = 0;  // NaN value: transparent
+          return;
+        }
+        tf(v, cr, cg, cb, sigma);
         if (shade) shading(grad, cr, cg, cb);
       };
       PieceIntegrator<decltype(sample)> const integ{sample, tol};
       for (size_t i = 0; i + 1 < cuts.size(); ++i) add_piece(integ, cuts[i], cuts[i + 1], acc);
-    } else {
-      ref::Hex const h = ref::load(*part.hexes, sg.cell);
-      ref::Clip const k = ref::clip(h, r);
-      auto value = [&](double t) {
-        dvec3 u = hex_guess(k, t);
-        return invert(h, r.o + t * r.d, u) ? ref::value(h, u) : std::numeric_limits<double>::quiet_NaN();
-      };
-      // Cut where the sampled field crosses a control value; kinks between
-      // samples are left to the adaptive refinement.
-      int const m = 8;
-      double tp = a, vp = value(a);
-      for (int i = 1; i <= m; ++i) {
-        double const t = a + (b - a) * i / m, v = value(t);
-        for (float cv : p.tf.values) {
-          double const c = double(cv);
-          if (std::isnan(vp) || std::isnan(v) || !((c > vp && c < v) || (c < vp && c > v))) continue;
-          double lo = tp, hi = t;
-          bool const lo_below = vp < c;
-          for (int it = 0; it < 60; ++it) {
-            double const mid = 0.5 * (lo + hi);
-            if (!(mid > lo && mid < hi)) break;
-            if ((value(mid) < c) == lo_below) lo = mid;
-            else hi = mid;
-          }
-          cuts.push_back(0.5 * (lo + hi));
-        }
-        tp = t, vp = v;
-      }
-      std::sort(cuts.begin(), cuts.end());
-      auto sample = [&](double t, double& cr, double& cg, double& cb, double& sigma) {
-        dvec3 u = hex_guess(k, t);
-        if (!invert(h, r.o + t * r.d, u)) {
-          cr = cg = cb = sigma = 0;  // NaN value: transparent
-          return;
-        }
-        tf(ref::value(h, u), cr, cg, cb, sigma);
-        if (shade) shading(ref::gradient(h, u), cr, cg, cb);
-      };
-      PieceIntegrator<decltype(sample)> const integ{sample, tol};
-      for (size_t i = 0; i + 1 < cuts.size(); ++i) add_piece(integ, cuts[i], cuts[i + 1], acc);
-    }
+    });
   }
   double const alpha = 1 - acc.T;
   double const rest = acc.T * double(p.background.a);

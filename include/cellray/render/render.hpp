@@ -80,6 +80,14 @@ struct Scene {
     hexes.push_back({m, &bvh, r, nullptr, n});
   }
 
+  /// The parts of type N: `tets` or `hexes` (what prepare() iterates over
+  /// the list of cell types).
+  template <int N> std::vector<ScenePart<N>> const& parts() const {
+    static_assert(N == 4 || N == 8, "Scene holds tetrahedral and hexahedral parts");
+    if constexpr (N == 4) return tets;
+    else return hexes;
+  }
+
   /// Bounds of every part's root box (empty parts ignored).
   void bounds(glm::vec3& lo, glm::vec3& hi) const;
   uint64_t cell_count() const;

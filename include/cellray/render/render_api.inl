@@ -20,28 +20,35 @@ inline void Scene::bounds(glm::vec3& lo, glm::vec3& hi) const {
     Node const& r = bvh->root();
     for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], r.lo[k]), hi[k] = std::max(hi[k], r.hi[k]);
   };
-  for (auto const& p : tets) add(p.bvh);
-  for (auto const& p : hexes) add(p.bvh);
+  for_each_cell_type([&](auto n) {
+    for (auto const& p : parts<n()>()) add(p.bvh);
+  });
 }
 
 inline uint64_t Scene::cell_count() const {
   uint64_t n = 0;
-  for (auto const& p : tets) n += p.mesh.cell_count();
-  for (auto const& p : hexes) n += p.mesh.cell_count();
+  for_each_cell_type([&](auto c) {
+    for (auto const& p : parts<c()>()) n += p.mesh.cell_count();
+  });
   return n;
 }
 
 namespace render_detail {
 
-template <int N> void add_part(ScenePart<N> const& part, CellMesh<N> const* mesh, PreparedScene& out, size_t index) {
-  std::string const what = std::string(N == 4 ? "tetrahedral" : "hexahedral") + " part " + std::to_string(index);
+/// "tetrahedral part 2": how errors name a scene's parts.
+template <int N> std::string part_name(size_t index) {
+  return std::string(cell_type_adjective(N)) + " part " + std::to_string(index);
+}
+
+template <int N> void add_part(ScenePart<N> const& part, PreparedScene& out, size_t index) {
+  std::string const what = part_name<N>(index);
   if (!part.bvh) throw InvalidArgument(what + " has no BVH");
   if (!part.mesh.has_values()) throw InvalidMesh(what + " has no scalar values");
   if (part.bvh->item_count() != part.mesh.cell_count())
     throw InvalidArgument(what + ": BVH built over " + std::to_string(part.bvh->item_count()) + " cells, mesh has " +
                           std::to_string(part.mesh.cell_count()));
   ValueRanges const& r = part.ranges ? *part.ranges : part.bvh->ranges();
-  PreparedPart pp{TreeView(*part.bvh, r), nullptr, nullptr};
+  PartCells<N> cells{&part.mesh, nullptr};
   if (part.neighbours) {
     if (!part.neighbours->fits(part.mesh))
       throw InvalidArgument(what + ": its face neighbours were built over another mesh (" +
@@ -52,24 +59,22 @@ template <int N> void add_part(ScenePart<N> const& part, CellMesh<N> const* mesh
   // and vertex x 3) the march is not available: the tree alone.
   constexpr uint64_t lim = uint64_t(std::numeric_limits<int32_t>::max());
   bool const march_fits = part.mesh.cell_count() * N < lim && part.mesh.vertex_count() * 3 < lim;
-  if constexpr (N == 4) {
-    pp.tets = mesh;
-    if (march_fits) pp.neighbours = part.neighbours;
-  } else {
-    pp.hexes = mesh;
-    if (march_fits) pp.hex_neighbours = part.neighbours;
-  }
-  out.parts.push_back(pp);
+  if (march_fits) cells.neighbours = part.neighbours;
+  out.parts.push_back(PreparedPart{TreeView(*part.bvh, r), cells});
 }
 
 inline PreparedScene prepare(Scene const& scene) {
   PreparedScene s;
-  for (size_t i = 0; i < scene.tets.size(); ++i) add_part(scene.tets[i], &scene.tets[i].mesh, s, i);
-  for (size_t i = 0; i < scene.hexes.size(); ++i) add_part(scene.hexes[i], &scene.hexes[i].mesh, s, i);
-  if (s.parts.size() == 2 && s.parts[0].neighbours && s.parts[1].hex_neighbours) {
-    ScenePart<4> const& t = scene.tets[0];
-    ScenePart<8> const& h = scene.hexes[0];
-    s.mixed_march = t.neighbours->linked_to(h.mesh) && h.neighbours->linked_to(t.mesh);
+  for_each_cell_type([&](auto n) {
+    auto const& parts = scene.parts<n()>();
+    for (size_t i = 0; i < parts.size(); ++i) add_part(parts[i], s, i);
+  });
+  // Two parts, tets then hexahedra, whose neighbours were linked to each
+  // other: DVR marches across both (MixedMarch).
+  if (s.parts.size() == 2 && s.parts[0].marches() && s.parts[1].marches()) {
+    auto const* t = s.parts[0].cells_of<4>();
+    auto const* h = s.parts[1].cells_of<8>();
+    s.mixed_march = t && h && t->neighbours->linked_to(*h->mesh) && h->neighbours->linked_to(*t->mesh);
   }
   scene.bounds(s.lo, s.hi);
   // The diagonal in double: a box of finite floats can have a diagonal over
@@ -110,9 +115,8 @@ inline PreparedScene prepare_iso(Scene const& scene, IsoParams const& p) {
   PreparedScene s = prepare(scene);
   s.clip = PreparedClip::from(p.clip);
   size_t k = 0;
-  auto extras = [&](auto const& part, char const* what, size_t index) {
+  auto extras = [&](auto const& part, std::string const& name) {
     PreparedPart& pp = s.parts[k++];
-    std::string const name = std::string(what) + " part " + std::to_string(index);
     if (p.normals == GradientMethod::smooth) {
       if (!part.gradients) throw InvalidArgument("smooth normals need vertex gradients (build_vertex_gradients) for " + name);
       if (!part.gradients->fits(part.mesh))
@@ -127,8 +131,10 @@ inline PreparedScene prepare_iso(Scene const& scene, IsoParams const& p) {
       if (!pp.color_values) throw InvalidArgument(name + " has no point array '" + p.color_by.array + "' to colour by");
     }
   };
-  for (size_t i = 0; i < scene.tets.size(); ++i) extras(scene.tets[i], "tetrahedral", i);
-  for (size_t i = 0; i < scene.hexes.size(); ++i) extras(scene.hexes[i], "hexahedral", i);
+  for_each_cell_type([&](auto n) {
+    auto const& parts = scene.parts<n()>();
+    for (size_t i = 0; i < parts.size(); ++i) extras(parts[i], part_name<n()>(i));
+  });
   if (!p.color_by.array.empty()) {
     if (!p.color_by.colors.values.empty()) p.color_by.colors.check();
     s.color_by = true;
@@ -338,8 +344,7 @@ inline std::vector<SurfaceHit> first_hits(Scene const& scene, std::vector<Ray> c
       uint64_t const b = c * chunk, m = std::min(chunk, n - b);
       for (size_t pi = 0; pi < s.parts.size(); ++pi) {
         PreparedPart const& part = s.parts[pi];
-        if (part.tets) dispatch<FirstHitEntry>(o.isa, part.tree, *part.tets, rays.data() + b, m, q, part_hits.data());
-        else dispatch<FirstHitEntry>(o.isa, part.tree, *part.hexes, rays.data() + b, m, q, part_hits.data());
+        dispatch<FirstHitEntry>(o.isa, part.tree, part.mesh(), rays.data() + b, m, q, part_hits.data());
         for (uint64_t i = 0; i < m; ++i)
           if (part_hits[i].t < hits[b + i].t) hits[b + i] = part_hits[i], hits[b + i].piece = uint32_t(pi);
       }
@@ -353,10 +358,7 @@ inline void sample_points(Scene const& scene, float const* xyz, uint64_t n, floa
   if (n == 0) return;
   if (!xyz || !out) throw InvalidArgument("sample_points: no points or no output");
   detail::probe_in_order(xyz, n, out, s.lo, s.hi, true, [&](float const* p, uint64_t m, float* v) {
-    for (PreparedPart const& part : s.parts) {
-      if (part.tets) dispatch<ProbeEntry>(o.isa, part.tree, *part.tets, p, m, v);
-      else dispatch<ProbeEntry>(o.isa, part.tree, *part.hexes, p, m, v);
-    }
+    for (PreparedPart const& part : s.parts) dispatch<ProbeEntry>(o.isa, part.tree, part.mesh(), p, m, v);
   });
 }
 

@@ -4,11 +4,13 @@
 // shared by the baseline side and the ISA units.
 
 #include <cstdint>
+#include <variant>
 #include <vector>
 
 #include <glm/vec3.hpp>
 
 #include "../mesh/cell_mesh.hpp"
+#include "../mesh/cell_types.hpp"
 #include "../mesh/neighbours.hpp"
 #include "../traverse/sample.hpp"
 #include "../traverse/tree_view.hpp"
@@ -17,14 +19,31 @@
 
 namespace cellray {
 
+/// A part's mesh view and its face neighbours, of one cell type.
+template <int N> struct PartCells {
+  CellMesh<N> const* mesh = nullptr;
+  /// Set when DVR segments (and, where CellOps allows, AO rays) may march.
+  FaceNeighbours<N> const* neighbours = nullptr;
+};
+
 struct PreparedPart {
   TreeView tree;
-  TetMesh const* tets = nullptr;   ///< exactly one of tets / hexes is set
-  HexMesh const* hexes = nullptr;
-  TetNeighbours const* neighbours = nullptr;  ///< tets: set when DVR segments and AO rays may march
-  HexNeighbours const* hex_neighbours = nullptr;  ///< hexes: set when DVR segments may march
+  PerCellType<PartCells> cells;
   float const* gradients = nullptr;     ///< iso, smooth normals: 3 per vertex (VertexGradients)
   float const* color_values = nullptr;  ///< iso coloured by another array: 1 per vertex
+
+  /// f(CellMesh<N> const& mesh, FaceNeighbours<N> const* neighbours) for this part's type.
+  template <class F> decltype(auto) visit(F&& f) const {
+    return std::visit([&](auto const& c) -> decltype(auto) { return f(*c.mesh, c.neighbours); }, cells);
+  }
+  AnyCellMesh mesh() const {
+    return std::visit([](auto const& c) { return AnyCellMesh(*c.mesh); }, cells);
+  }
+  bool marches() const {
+    return std::visit([](auto const& c) { return c.neighbours != nullptr; }, cells);
+  }
+  /// This part's cells if they are of type N, else nullptr.
+  template <int N> PartCells<N> const* cells_of() const { return std::get_if<PartCells<N>>(&cells); }
 };
 
 /// Transfer function sampled into a table with the opacity corrected for the
@@ -47,8 +66,9 @@ struct PreparedScene {
   PreparedTf const* tf = nullptr;
   float inv_gradient_full = 0.f;  ///< DVR shading: 1 / DvrShading::gradient_full after defaults
   PreparedClip clip;              ///< the region kept (no planes: everything)
-  /// DVR segments: a tet part and a hexahedral part whose face neighbours
-  /// are linked to each other (link_face_neighbours) march as one mesh.
+  /// DVR segments: a tet part (parts[0]) and a hexahedral part (parts[1])
+  /// whose face neighbours are linked to each other (link_face_neighbours)
+  /// march as one mesh.
   bool mixed_march = false;
   bool color_by = false;          ///< iso: colour by PreparedPart::color_values through `colors`
   ColorTable colors;

@@ -35,7 +35,7 @@ void dvr_packet(PreparedScene const& s, DvrParams const& p, RenderOptions const&
                 vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca, float depth_at, vfloat<A>& depth) {
   constexpr int W = width<A>;
   int const threshold = o.hybrid_threshold > 0 ? o.hybrid_threshold : std::max(1, W / 4);
-  bool const march = s.parts.size() == 1 && (s.parts[0].neighbours || s.parts[0].hex_neighbours);
+  bool const march = s.parts.size() == 1 && s.parts[0].marches();
   // The part of each ray inside the scene's bounds. An empty scene's box
   // (lo = +inf, hi = -inf) passes the slab test for every t: no ray is
   // inside it (else the sample march never ends).
@@ -56,19 +56,17 @@ void dvr_packet(PreparedScene const& s, DvrParams const& p, RenderOptions const&
   if (p.mode == DvrMode::samples)
     integrate_samples<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, scratch.sample_cull.data(), cr, cg,
                          cb, ca, depth_at, depth);
-  else if (march && s.parts[0].tets) {
+  else if (march) {
     PreparedPart const& pp = s.parts[0];
-    CellMarch<A, 4> m(pp.tree, *pp.tets, *pp.neighbours, r, s.windows, t_enter, t_exit);
-    integrate_march<A>(s, m, r, inside, t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
-  } else if (march) {
-    PreparedPart const& pp = s.parts[0];
-    CellMarch<A, 8> m(pp.tree, *pp.hexes, *pp.hex_neighbours, r, s.windows, t_enter, t_exit);
-    integrate_march<A>(s, m, r, inside, t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
+    pp.visit([&](auto const& mesh, auto const* neighbours) {
+      CellMarch<A, std::decay_t<decltype(mesh)>::corners> m(pp.tree, mesh, *neighbours, r, s.windows, t_enter, t_exit);
+      integrate_march<A>(s, m, r, inside, t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
+    });
   } else if (s.mixed_march) {
-    PreparedPart const& pt = s.parts[0];  // prepare() puts the tets first
-    PreparedPart const& ph = s.parts[1];
-    MixedMarch<A> m(pt.tree, *pt.tets, *pt.neighbours, ph.tree, *ph.hexes, *ph.hex_neighbours, r, s.windows, t_enter,
-                    t_exit);
+    PartCells<4> const& t = *s.parts[0].cells_of<4>();  // prepare() checked both
+    PartCells<8> const& h = *s.parts[1].cells_of<8>();
+    MixedMarch<A> m(s.parts[0].tree, *t.mesh, *t.neighbours, s.parts[1].tree, *h.mesh, *h.neighbours, r, s.windows,
+                    t_enter, t_exit);
     integrate_march<A>(s, m, r, inside, t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
   } else
     integrate_segments<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, scratch.segments, cr, cg, cb, ca,

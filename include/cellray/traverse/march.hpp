@@ -170,8 +170,9 @@ template <class A, int N> struct CellMarch {
   /// One cell for each lane in `lanes` (all with a cell): its clip and the
   /// piece past t, then on to the neighbour across the exit face (-1 where
   /// there is none, the step made no progress or the lane has had
-  /// `max_faint` invisible cells in a row). t advances to the exit.
-  Step step(vmask<A> const& lanes, bool want_gradient) {
+  /// `max_faint` invisible cells in a row). t advances to the exit. Forced
+  /// inline: see march_step in render/dvr_integrators_impl.hpp.
+  CELLRAY_FORCE_INLINE Step step(vmask<A> const& lanes, bool want_gradient) {
     Step s;
     vint<A> exit_face(0);
     if constexpr (N == 4) {
@@ -296,7 +297,7 @@ template <class A> struct MixedMarch {
   /// One cell for each lane in `lanes` (all with a cell), with its part's
   /// kernel (CellMarch::step); lanes that leave across a link go on in the
   /// other part.
-  Step step(vmask<A> const& lanes, bool want_gradient) {
+  CELLRAY_FORCE_INLINE Step step(vmask<A> const& lanes, bool want_gradient) {
     Step s;
     s.in_tet = lanes && tets.has_cell();
     s.in_hex = lanes && hexes.has_cell();

@@ -9,6 +9,7 @@
 
 #include "../dispatch/dispatch.hpp"
 #include "../mesh/cell_mesh.hpp"
+#include "../mesh/cell_types.hpp"
 #include "queries.hpp"
 #include "ray.hpp"
 #include "tree_view.hpp"
@@ -25,9 +26,7 @@ namespace cellray {
 /// neighbourhood, e.g. one pixel block's AO rays, ordered by direction).
 /// Reads the mesh, tree and rays; writes `occluded[0..n)`. Single-threaded.
 template <class Arch> struct OcclusionEntry {
-  static void run(TreeView const& tree, TetMesh const& mesh, Ray const* rays, uint64_t n, IsoQuery const& q,
-                  bool grouped, uint8_t* occluded);
-  static void run(TreeView const& tree, HexMesh const& mesh, Ray const* rays, uint64_t n, IsoQuery const& q,
+  static void run(TreeView const& tree, AnyCellMesh mesh, Ray const* rays, uint64_t n, IsoQuery const& q,
                   bool grouped, uint8_t* occluded);
 };
 CELLRAY_EXTERN_ENTRY(OcclusionEntry)

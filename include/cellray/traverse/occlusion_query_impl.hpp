@@ -51,14 +51,9 @@ void occluded_rays(TreeView const& tree, CellMesh<N> const& mesh, Ray const* ray
 }  // namespace CELLRAY_ISA_NS
 
 template <class Arch>
-void OcclusionEntry<Arch>::run(TreeView const& tree, TetMesh const& mesh, Ray const* rays, uint64_t n,
-                               IsoQuery const& q, bool grouped, uint8_t* occluded) {
-  impl::occluded_rays<Arch>(tree, mesh, rays, n, q, grouped, occluded);
-}
-template <class Arch>
-void OcclusionEntry<Arch>::run(TreeView const& tree, HexMesh const& mesh, Ray const* rays, uint64_t n,
-                               IsoQuery const& q, bool grouped, uint8_t* occluded) {
-  impl::occluded_rays<Arch>(tree, mesh, rays, n, q, grouped, occluded);
+void OcclusionEntry<Arch>::run(TreeView const& tree, AnyCellMesh mesh, Ray const* rays, uint64_t n, IsoQuery const& q,
+                               bool grouped, uint8_t* occluded) {
+  mesh.visit([&](auto const& m) { impl::occluded_rays<Arch>(tree, m, rays, n, q, grouped, occluded); });
 }
 
 }  // namespace cellray

@@ -8,6 +8,7 @@
 
 #include "../dispatch/dispatch.hpp"
 #include "../mesh/cell_mesh.hpp"
+#include "../mesh/cell_types.hpp"
 #include "point_order.hpp"
 #include "ray.hpp"
 #include "sample.hpp"
@@ -30,9 +31,7 @@ struct IsoQuery {
 /// Reads the mesh, tree and rays; writes `hits[0..n)`. Single-threaded:
 /// callers split rays across threads. NaN cells are never hit.
 template <class Arch> struct FirstHitEntry {
-  static void run(TreeView const& tree, TetMesh const& mesh, Ray const* rays, uint64_t n, IsoQuery const& q,
-                  SurfaceHit* hits);
-  static void run(TreeView const& tree, HexMesh const& mesh, Ray const* rays, uint64_t n, IsoQuery const& q,
+  static void run(TreeView const& tree, AnyCellMesh mesh, Ray const* rays, uint64_t n, IsoQuery const& q,
                   SurfaceHit* hits);
 };
 CELLRAY_EXTERN_ENTRY(FirstHitEntry)
@@ -43,9 +42,7 @@ CELLRAY_EXTERN_ENTRY(FirstHitEntry)
 /// `windows`, in a subtree whose values lie outside every window). The
 /// samples of a ray are located `group` at a time (1..32) per traversal.
 template <class Arch> struct SampleEntry {
-  static void run(TreeView const& tree, TetMesh const& mesh, Ray const* rays, uint64_t n, float step,
-                  int samples_per_ray, int group, Traversal how, ValueWindows const& windows, float* out);
-  static void run(TreeView const& tree, HexMesh const& mesh, Ray const* rays, uint64_t n, float step,
+  static void run(TreeView const& tree, AnyCellMesh mesh, Ray const* rays, uint64_t n, float step,
                   int samples_per_ray, int group, Traversal how, ValueWindows const& windows, float* out);
 };
 CELLRAY_EXTERN_ENTRY(SampleEntry)
@@ -60,8 +57,7 @@ CELLRAY_EXTERN_ENTRY(SampleEntry)
 /// points share one descent: callers order the points along a space-filling
 /// curve first (detail::probe_in_order). Single-threaded; reads only.
 template <class Arch> struct ProbeEntry {
-  static void run(TreeView const& tree, TetMesh const& mesh, float const* xyz, uint64_t n, float* values);
-  static void run(TreeView const& tree, HexMesh const& mesh, float const* xyz, uint64_t n, float* values);
+  static void run(TreeView const& tree, AnyCellMesh mesh, float const* xyz, uint64_t n, float* values);
 };
 CELLRAY_EXTERN_ENTRY(ProbeEntry)
 

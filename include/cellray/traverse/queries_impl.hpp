@@ -102,38 +102,24 @@ void sample_rays(TreeView const& tree, CellMesh<N> const& mesh, Ray const* rays,
 }  // namespace CELLRAY_ISA_NS
 
 template <class Arch>
-void FirstHitEntry<Arch>::run(TreeView const& tree, TetMesh const& mesh, Ray const* rays, uint64_t n,
-                              IsoQuery const& q, SurfaceHit* hits) {
-  impl::first_hits<Arch>(tree, mesh, rays, n, q, hits);
-}
-template <class Arch>
-void FirstHitEntry<Arch>::run(TreeView const& tree, HexMesh const& mesh, Ray const* rays, uint64_t n,
-                              IsoQuery const& q, SurfaceHit* hits) {
-  impl::first_hits<Arch>(tree, mesh, rays, n, q, hits);
+void FirstHitEntry<Arch>::run(TreeView const& tree, AnyCellMesh mesh, Ray const* rays, uint64_t n, IsoQuery const& q,
+                              SurfaceHit* hits) {
+  mesh.visit([&](auto const& m) { impl::first_hits<Arch>(tree, m, rays, n, q, hits); });
 }
 
 }  // namespace cellray
 
 namespace cellray {
 template <class Arch>
-void SampleEntry<Arch>::run(TreeView const& tree, TetMesh const& mesh, Ray const* rays, uint64_t n, float step,
+void SampleEntry<Arch>::run(TreeView const& tree, AnyCellMesh mesh, Ray const* rays, uint64_t n, float step,
                             int per_ray, int group, Traversal how, ValueWindows const& windows, float* out) {
-  impl::sample_rays<Arch>(tree, mesh, rays, n, step, per_ray, group, how, windows, out);
-}
-template <class Arch>
-void SampleEntry<Arch>::run(TreeView const& tree, HexMesh const& mesh, Ray const* rays, uint64_t n, float step,
-                            int per_ray, int group, Traversal how, ValueWindows const& windows, float* out) {
-  impl::sample_rays<Arch>(tree, mesh, rays, n, step, per_ray, group, how, windows, out);
+  mesh.visit([&](auto const& m) { impl::sample_rays<Arch>(tree, m, rays, n, step, per_ray, group, how, windows, out); });
 }
 }  // namespace cellray
 
 namespace cellray {
 template <class Arch>
-void ProbeEntry<Arch>::run(TreeView const& tree, TetMesh const& mesh, float const* xyz, uint64_t n, float* values) {
-  probe_points<Arch>(tree, mesh, xyz, n, values);
-}
-template <class Arch>
-void ProbeEntry<Arch>::run(TreeView const& tree, HexMesh const& mesh, float const* xyz, uint64_t n, float* values) {
-  probe_points<Arch>(tree, mesh, xyz, n, values);
+void ProbeEntry<Arch>::run(TreeView const& tree, AnyCellMesh mesh, float const* xyz, uint64_t n, float* values) {
+  mesh.visit([&](auto const& m) { probe_points<Arch>(tree, m, xyz, n, values); });
 }
 }  // namespace cellray
