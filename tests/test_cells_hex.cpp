@@ -322,3 +322,104 @@ TEST_CASE("hex degenerate input has documented outcomes", "[cells][hex][isa]") {
 }
 
 }  // namespace test_cells_hex
+
+// The reference renderer's view of a cell along a ray (ref::FieldOnRay, in
+// cells/reference.hpp since the renderer stopped branching on the type):
+// its crossings against the independent 512-step oracle, and its values and
+// control-value cuts against exact point location.
+namespace test_cells_hex {
+TEST_CASE("ref::FieldOnRay: hex crossings agree with the 512-step oracle, cuts and values with locate",
+          "[cells][hex][reference]") {
+  GeneratedMesh<8> const g = generate_hex_family(600, 7, 0.35f);  // hexes, wedges, pyramids
+  HexMesh const m = g.mesh();
+  test::Rng rng(41);
+  int crossings = 0, extra = 0, cuts = 0;
+  for (int i = 0; i < 400; ++i) {
+    uint64_t const c = rng.next() % m.cell_count();
+    ref::Hex const h = ref::load(m, c);
+    glm::dvec3 const target = ref::position(h, rng.in_box(0.05, 0.95));
+    glm::dvec3 const d = rng.direction();
+    ref::Ray const r{target - 2.0 * d, d};
+    ref::FieldOnRay<8> const f(h, r, 64);
+    ref::Clip const& k = f.clip();
+    REQUIRE(k.hit);
+    double const size = glm::length(h.p[6] - h.p[0]);
+    double lo = h.s[0], hi = h.s[0];
+    for (double s : h.s) lo = std::min(lo, s), hi = std::max(hi, s);
+    double const iso = ref::locate(h, target).value;  // crossed at the target, at least
+    std::vector<double> xs;
+    f.crossings(iso, xs);
+    std::vector<double> const oracle = ref::crossings(h, r, k, iso);
+    // Every crossing the oracle finds, FieldOnRay finds at the same t; what
+    // it finds beyond (a root pair inside one oracle step) is a true root.
+    for (double t : oracle) {
+      bool const found = std::any_of(xs.begin(), xs.end(), [&](double x) { return std::abs(x - t) <= 1e-9 * size; });
+      CHECK(found);
+      crossings += found;
+    }
+    extra += int(xs.size()) - int(oracle.size());
+    CHECK(xs.size() >= oracle.size());
+    for (double x : xs) {
+      double v = 0;
+      REQUIRE(f.at(x, v, nullptr));
+      CHECK(std::abs(v - iso) <= 1e-9 * (hi - lo));
+    }
+    // Values and gradients at t: exact location's.
+    double const t = 0.5 * (k.t_in + k.t_out);
+    double v = 0;
+    glm::dvec3 grad;
+    REQUIRE(f.at(t, v, &grad));
+    ref::Location const at = ref::locate(h, r.o + t * r.d);
+    CHECK(std::abs(v - at.value) <= 1e-10 * (hi - lo + 1));
+    CHECK(glm::length(grad - ref::gradient(h, at.param)) <= 1e-8 * (glm::length(grad) + 1));
+    CHECK(glm::length(f.gradient_at(t) - grad) <= 1e-8 * (glm::length(grad) + 1));
+    // Control-value cuts inside the clip: the field there is the control value.
+    std::vector<float> const controls = {float(lo + 0.25 * (hi - lo)), float(iso), float(lo + 0.75 * (hi - lo))};
+    std::vector<double> cut;
+    f.cuts(k.t_in, k.t_out, controls, cut);
+    for (double x : cut) {
+      CHECK(x > k.t_in);
+      CHECK(x < k.t_out);
+      REQUIRE(f.at(x, v, nullptr));
+      double const nearest = std::min({std::abs(v - controls[0]), std::abs(v - controls[1]), std::abs(v - controls[2])});
+      CHECK(nearest <= 1e-9 * (hi - lo));
+      ++cuts;
+    }
+  }
+  // The rays go through an iso crossing each: nearly all are found.
+  CHECK(crossings >= 380);
+  CHECK(cuts >= 380);
+  INFO("root pairs found beyond the oracle: " << extra);
+}
+
+TEST_CASE("ref::FieldOnRay: a tet's field along a ray is its clip's line, exactly", "[cells][tet][reference]") {
+  GeneratedMesh<4> const g = generate_tets(600, 5, 0.3f);
+  TetMesh const m = g.mesh();
+  test::Rng rng(43);
+  for (int i = 0; i < 200; ++i) {
+    ref::Tet const c = ref::load(m, rng.next() % m.cell_count());
+    glm::dvec3 const target = 0.25 * (c.p[0] + c.p[1] + c.p[2] + c.p[3]);
+    glm::dvec3 const d = rng.direction();
+    ref::Ray const r{target - d, d};
+    ref::FieldOnRay<4> const f(c, r);
+    ref::Clip const& k = f.clip();
+    REQUIRE(k.hit);
+    double const t = k.t_in + 0.3 * (k.t_out - k.t_in);
+    double v = 0;
+    glm::dvec3 grad;
+    REQUIRE(f.at(t, v, &grad));
+    double const spread = std::abs(k.s_out - k.s_in) + 1;
+    CHECK(std::abs(v - ref::locate(c, r.o + t * r.d).value) <= 1e-9 * spread);
+    CHECK(glm::length(grad - ref::gradient(c)) == 0.0);
+    float const mid = float(0.5 * (k.s_in + k.s_out));
+    std::vector<double> cut, xs;
+    f.cuts(k.t_in, k.t_out, {mid}, cut);
+    f.crossings(double(mid), xs);
+    if (double(mid) > std::min(k.s_in, k.s_out) && double(mid) < std::max(k.s_in, k.s_out)) {
+      REQUIRE(cut.size() == 1);
+      REQUIRE(xs.size() == 1);
+      CHECK(std::abs(cut[0] - xs[0]) <= 1e-9 * (k.t_out - k.t_in));
+    }
+  }
+}
+}  // namespace test_cells_hex

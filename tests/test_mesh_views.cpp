@@ -6,10 +6,12 @@
 #include <array>
 #include <algorithm>
 #include <set>
+#include <variant>
 #include <vector>
 
 #include <sys/mman.h>
 
+#include <cellray/mesh/cell_types.hpp>
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/validate.hpp>
 
@@ -145,6 +147,28 @@ TEST_CASE("validate names bad indices, non-finite data, flat and inverted cells"
   CHECK(hrep.inverted.count == 1);
   CHECK(hrep.inverted.first == 1);
   CHECK(validate(HexMesh{view(flat), view(hi)}).zero_volume.count == 2);
+}
+
+TEST_CASE("The cell-type list: AnyCellMesh visits each view as its own type", "[mesh][types]") {
+  std::vector<int> listed;
+  for_each_cell_type([&](auto n) { listed.push_back(n()); });
+  CHECK(listed == std::vector<int>{4, 8});
+  CHECK(std::variant_size_v<PerCellType<CellMesh>> == listed.size());
+  static_assert(is_cell_type<4> && is_cell_type<8> && !is_cell_type<6>);
+  GeneratedMesh<4> const t = generate_tets(300, 3);
+  GeneratedMesh<8> const h = generate_hexes(200, 3);
+  TetMesh const tm = t.mesh();
+  HexMesh const hm = h.mesh();
+  for (AnyCellMesh const any : {AnyCellMesh(tm), AnyCellMesh(hm)}) {
+    int const corners = any.visit([](auto const& m) { return std::decay_t<decltype(m)>::corners; });
+    uint64_t const cells = corners == 4 ? tm.cell_count() : hm.cell_count();
+    uint64_t const verts = corners == 4 ? tm.vertex_count() : hm.vertex_count();
+    CHECK(any.cell_count() == cells);
+    CHECK(any.vertex_count() == verts);
+    // The visit hands over the host's view itself, not a copy.
+    void const* seen = any.visit([](auto const& m) { return static_cast<void const*>(&m); });
+    CHECK(seen == (corners == 4 ? static_cast<void const*>(&tm) : static_cast<void const*>(&hm)));
+  }
 }
 
 }  // namespace test_mesh_views

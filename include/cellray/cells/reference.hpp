@@ -545,7 +545,7 @@ template <> class FieldOnRay<8> {
   /// samples are left to the integrator's adaptive refinement.
   void cuts(double a, double b, std::vector<float> const& values, std::vector<double>& out) const {
     auto value = [&](double t) {
-      double v;
+      double v = 0;
       at(t, v, nullptr);
       return v;
     };

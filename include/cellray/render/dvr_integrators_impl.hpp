@@ -309,11 +309,18 @@ template <class A, int N>
 void march_piece(RayBatch<A> const& ray, typename CellMarch<A, N>::Step const& st, vmask<A> const& go, bool shade,
                  MarchPiece<A>& pc) {
   pc.a = st.a, pc.e = st.e, pc.t_in = st.k.t_in, pc.t_out = st.k.t_out, pc.go = go;
-  // Not CellOps::segment_field, though it computes the same: through it hex
-  // DVR measured 5-13% slower (GCC 12, AVX-512), with or without forced
-  // inlining; the cause was not found (docs/performance.md).
   vfloat<A> const zero(0.f);
-  if constexpr (N == 8) {
+  if constexpr (CellOps<A, N>::linear_on_ray) {
+    pc.f = {st.k.s_in, st.k.s_out - st.k.s_in, zero, zero};
+    if (shade) {  // the step's constant gradient
+      pc.g[0] = {st.gradient.x, zero, zero, zero};
+      pc.g[1] = {st.gradient.y, zero, zero, zero};
+      pc.g[2] = {st.gradient.z, zero, zero, zero};
+    }
+  } else if constexpr (N == 8) {
+    // Hexahedra: CellOps<A, 8>::segment_field's arithmetic, copied: through
+    // it hex DVR measured 5-13% slower (GCC 12, AVX-512), with or without
+    // forced inlining; the cause was not found (docs/performance.md).
     Vec3<A> u1, u2;
     vfloat<A> const v1 = CellOps<A, 8>::field_on_ray(ray, st.c, st.k, go, 1.f / 3.f, u1);
     vfloat<A> const v2 = CellOps<A, 8>::field_on_ray(ray, st.c, st.k, go, 2.f / 3.f, u2);
@@ -326,12 +333,7 @@ void march_piece(RayBatch<A> const& ray, typename CellMarch<A, N>::Step const& s
       pc.g[2] = isa_detail::cubic_through<A>(g0.z, g1.z, g2.z, g3.z);
     }
   } else {
-    pc.f = {st.k.s_in, st.k.s_out - st.k.s_in, zero, zero};
-    if (shade) {  // a tet's gradient is constant
-      pc.g[0] = {st.gradient.x, zero, zero, zero};
-      pc.g[1] = {st.gradient.y, zero, zero, zero};
-      pc.g[2] = {st.gradient.z, zero, zero, zero};
-    }
+    CellOps<A, N>::segment_field(ray, st.c, st.k, go, pc.f, shade ? pc.g : nullptr);
   }
 }
 
@@ -431,10 +433,10 @@ CELLRAY_NOINLINE void integrate_march(PreparedScene const& s, March& m, RayPacke
       live = live && !m.locate(live, how, threshold);
       continue;
     }
-    if constexpr (std::is_same_v<March, CellMarch<A, 4>>) {
-      // Tets straight from the step: a line and a constant gradient (through
-      // MarchPiece, shaded tet DVR was 4% slower).
-      typename CellMarch<A, 4>::Step const st = m.step(has, shade);
+    if constexpr (March::linear_on_ray) {
+      // Straight from the step: a line and a constant gradient (tets through
+      // MarchPiece: shaded DVR was 4% slower).
+      typename March::Step const st = m.step(has, shade);
       vmask<A> const go = st.visible && ca < term;
       if (simd::any(go))
         composite(go, st.a, st.e, st.k.t_in, st.k.t_out, {st.k.s_in, st.k.s_out - st.k.s_in, zero, zero},

@@ -642,7 +642,7 @@ inline void dvr_pixel(Setup const& s, Camera const& cam, DvrParams const& p, Ref
       f.cuts(a, b, p.tf.values, cuts);
       std::sort(cuts.begin(), cuts.end());
       auto sample = [&](double t, double& cr, double& cg, double& cb, double& sigma) {
-        double v;
+        double v = 0;
         dvec3 grad;
         if (!f.at(t, v, shade ? &grad : nullptr)) {
           cr = cg = cb = sigma = 0;  // NaN value: transparent

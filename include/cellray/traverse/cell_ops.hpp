@@ -28,10 +28,19 @@ template <class A> struct CellOps<A, 4> {
   /// A hit or located point has no cell coordinates worth keeping.
   static constexpr bool keeps_param = false;
   static Clip clip(RayBatch<A> const& r, CellCorners<A, 4> const& c) { return clip_tet(r, c); }
+  /// The clip narrowed to [t_lo, t_hi]; `exit_face`, if given, receives the
+  /// face (mesh face order, FaceNeighbours') the ray leaves through.
   static Clip clip_window(RayBatch<A> const& r, CellCorners<A, 4> const& c, vmask<A> const& lanes,
-                          vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
-    return clip_tet_window(r, c, lanes, t_lo, t_hi);
+                          vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face = nullptr) {
+    return clip_tet_window(r, c, lanes, t_lo, t_hi, exit_face);
   }
+  /// A march's next cell shares a face's corners with the last one: the
+  /// march gathers only the one it does not share (CellMarch::next_corners).
+  static constexpr bool march_reuses_corners = true;
+  /// Grouped occlusion queries clip (cell, ray) pairs, W per kernel call,
+  /// instead of each cell against every packet that meets it: a tet's clip
+  /// is cheap against its broadcast (TetPairs in occlusion.hpp, tets only).
+  static constexpr bool occlusion_in_pairs = true;
   /// `param` is for hexes (hit coordinates); tets leave it alone.
   /// `t_from` is for hexes too: a tet holds one crossing per isovalue.
   static CellIsoHit<A> iso(RayBatch<A> const& r, Clip const& k, CellCorners<A, 4> const& c, float const* isos,
@@ -43,6 +52,16 @@ template <class A> struct CellOps<A, 4> {
   static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 4> const& c) { return locate_tet(p, c); }
   static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 4> const& c, vmask<A> const& /*lanes*/) {
     return locate_tet(p, c);
+  }
+  /// Lanes that `locate` left outside by at most `tol` in the cell's own
+  /// coordinates, with a finite value: a probe's fallback where rounding put
+  /// a point on a shared edge or vertex outside every cell (probe.hpp).
+  /// Comparisons, not a min: a flat tet's NaN weights must fail.
+  static vmask<A> nearly_inside(Located<A> const& loc, float tol) {
+    Vec3<A> const& w = loc.param;
+    vfloat<A> const w0 = vfloat<A>(1.f) - (w.x + w.y + w.z), t(-tol);
+    return w0 >= t && w.x >= t && w.y >= t && w.z >= t &&
+           simd::abs(loc.value) <= vfloat<A>(std::numeric_limits<float>::max());
   }
   static Vec3<A> gradient(CellCorners<A, 4> const& c, Vec3<A> const& p, GradientMethod m, float h) {
     return m != GradientMethod::central ? gradient_tet(c) : gradient_central_tet(c, p, h);
@@ -79,9 +98,11 @@ template <class A> struct CellOps<A, 8> {
   static constexpr bool keeps_param = true;
   static Clip clip(RayBatch<A> const& r, CellCorners<A, 8> const& c) { return clip_hex(r, c); }
   static Clip clip_window(RayBatch<A> const& r, CellCorners<A, 8> const& c, vmask<A> const& lanes,
-                          vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
-    return clip_hex_window(r, c, lanes, t_lo, t_hi);
+                          vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face = nullptr) {
+    return clip_hex_window(r, c, lanes, t_lo, t_hi, exit_face);
   }
+  static constexpr bool march_reuses_corners = false;
+  static constexpr bool occlusion_in_pairs = false;
   /// `param`, if given, receives the trilinear coordinates of the hit in
   /// hit lanes (iso_root_hex's; for Neubauer one inversion at the root).
   /// `t_from`: the exact method's search start (see iso_root_hex);
@@ -106,6 +127,8 @@ template <class A> struct CellOps<A, 8> {
   static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 8> const& c, vmask<A> const& lanes) {
     return locate_hex(p, c, lanes);
   }
+  /// None: locate_hex's containment is widened already (hex_inside_tolerance).
+  static vmask<A> nearly_inside(Located<A> const& /*loc*/, float /*tol*/) { return simd::no_lanes<A>(); }
   static Vec3<A> gradient(CellCorners<A, 8> const& c, Vec3<A> const& p, GradientMethod m, float h) {
     Located<A> const l = locate_hex(PointBatch<A>{p.x, p.y, p.z}, c);
     return m != GradientMethod::central ? gradient_hex(c, l.param) : gradient_central_hex(c, p, l.param, h);

@@ -110,6 +110,8 @@ template <class A, int N> struct FirstCellQuery {
 /// each step's segments, until its lanes are done.
 template <class A, int N> struct CellMarch {
   static constexpr int faces = FaceNeighbours<N>::faces;
+  /// Every step's field is linear along the ray (Step::gradient is set).
+  static constexpr bool linear_on_ray = CellOps<A, N>::linear_on_ray;
   using Clip = typename CellOps<A, N>::Clip;
   TreeView const& tree;
   CellMesh<N> const& mesh;
@@ -132,8 +134,10 @@ template <class A, int N> struct CellMarch {
   /// the next locate): a lane's next cell shares three of them.
   CellCorners<A, N> last;
   bool last_valid = false;
-  /// next_corners applies: tets with 32-bit indices whose ids are the corners' keys.
-  bool const reuse_ok = N == 4 && mesh.has_32bit_indices() && mesh.vertex_count() <= (uint64_t(1) << 31);
+  /// next_corners applies: a type that shares a face's corners with its
+  /// neighbour (tets), 32-bit indices whose ids are the corners' keys.
+  bool const reuse_ok = CellOps<A, N>::march_reuses_corners && mesh.has_32bit_indices() &&
+                        mesh.vertex_count() <= (uint64_t(1) << 31);
 
   /// What a step found per lane: the cell's clip and the piece [a, e] of it
   /// the ray has not integrated yet; `visible` where that piece may have
@@ -143,7 +147,7 @@ template <class A, int N> struct CellMarch {
     Clip k;
     vfloat<A> a, e;
     vmask<A> visible;
-    Vec3<A> gradient;  ///< tets: the cell's (constant) field gradient, when asked for
+    Vec3<A> gradient;  ///< linear_on_ray: the cell's (constant) field gradient, when asked for
   };
 
   CellMarch(TreeView const& tr, CellMesh<N> const& m, FaceNeighbours<N> const& nb, RayPacket<A> const& rays,
@@ -175,14 +179,15 @@ template <class A, int N> struct CellMarch {
   CELLRAY_FORCE_INLINE Step step(vmask<A> const& lanes, bool want_gradient) {
     Step s;
     vint<A> exit_face(0);
-    if constexpr (N == 4) {
-      s.c = last_valid ? next_corners(lanes) : gather_corners<A, 4>(mesh, cell, lanes);
-      s.k = clip_tet_window(ray_batch(r), s.c, lanes, t, t_end, &exit_face);
-      if (want_gradient) s.gradient = gradient_tet(s.c);
-    } else {
+    using Ops = CellOps<A, N>;
+    if constexpr (Ops::march_reuses_corners)
+      s.c = last_valid ? next_corners(lanes) : gather_corners<A, N>(mesh, cell, lanes);
+    else
       s.c = gather_corners<A, N>(mesh, cell, lanes);
-      s.k = clip_hex_window(ray_batch(r), s.c, lanes, t, t_end, &exit_face);
-    }
+    s.k = Ops::clip_window(ray_batch(r), s.c, lanes, t, t_end, &exit_face);
+    // A field linear on every ray has one gradient per cell.
+    if constexpr (Ops::linear_on_ray)
+      if (want_gradient) s.gradient = Ops::gradient_at(s.c, Vec3<A>{});
     CellCorners<A, N> const& c = s.c;
     vmask<A> const progress = s.k.hit && s.k.t_out > t;
     s.a = simd::max(s.k.t_in, t), s.e = simd::min(s.k.t_out, t_end);
@@ -194,7 +199,7 @@ template <class A, int N> struct CellMarch {
     t = simd::select(progress, s.e, t);
     vmaski<A> const go_on = pi && faint <= vint<A>(max_faint);
     cell = simd::select(simd::to_int_mask(lanes), simd::select(go_on, next, vint<A>(-1)), cell);
-    if constexpr (N == 4) last = c, last_valid = reuse_ok;
+    if constexpr (Ops::march_reuses_corners) last = c, last_valid = reuse_ok;
     return s;
   }
 
@@ -255,6 +260,7 @@ template <class A> using TetMarch = CellMarch<A, 4>;
 /// nearer cell. The segments are each part's own, so the image is the
 /// two-part tree's up to rounding.
 template <class A> struct MixedMarch {
+  static constexpr bool linear_on_ray = false;  ///< see CellMarch's
   CellMarch<A, 4> tets;   ///< lanes with tets.cell >= 0 are in a tet
   CellMarch<A, 8> hexes;  ///< lanes with hexes.cell >= 0 in a hexahedron; never both
   vfloat<A> t;            ///< per lane: where the ray has got to (both parts' t)

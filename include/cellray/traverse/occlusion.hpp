@@ -256,10 +256,11 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
   int sp = 0;
   if (!isos.overlaps(tree.ranges[0], tree.ranges[1])) return;
   if (Lanes const in = enter(0, pending)) stack[sp++] = {0, in};
-  // Tets: the rays' components per lane, for the pairs.
+  // occlusion_in_pairs: the rays' components per lane, for the pairs.
   TetPairs<A, K> pairs;
-  alignas(64) float rays[N == 4 ? K : 1][8][W];
-  if constexpr (N == 4)
+  constexpr bool in_pairs = CellOps<A, N>::occlusion_in_pairs;
+  alignas(64) float rays[in_pairs ? K : 1][8][W];
+  if constexpr (in_pairs)
     for (int k = 0; k < K; ++k) {
       vfloat<A> const* comp[8] = {&r[k].ox, &r[k].oy, &r[k].oz, &r[k].dx, &r[k].dy, &r[k].dz, &r[k].tmin, &r[k].tmax};
       for (int j = 0; j < 8; ++j) simd::store(rays[k][j], *comp[j]);
@@ -310,7 +311,7 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
       }
       if (any_in) {
         order_corners(mesh.vertex_count(), sc);
-        if constexpr (N == 4) {
+        if constexpr (in_pairs) {
           for (int k = 0; k < K; ++k)
             if (in[k]) pairs.add(xyz, sc, rays[k], k, in[k], pending, isos, method);
         } else {
@@ -327,7 +328,7 @@ void occluded_packets(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A
       if (!(entered & pending)) break;
     }
   }
-  if constexpr (N == 4) pairs.flush(pending, isos, method);
+  if constexpr (in_pairs) pairs.flush(pending, isos, method);
   for (int k = 0; k < K; ++k) pending_rays[k] = packet_lanes<A, K>(pending, k);
 }
 

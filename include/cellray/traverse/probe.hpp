@@ -113,20 +113,13 @@ template <class A, int N> struct PointPacket {
         for (uint32_t b = held; b; b &= b - 1) value[__builtin_ctz(b)] = v_all[__builtin_ctz(b)];
         pending &= ~held;
       }
-      if constexpr (N == 4) {
-        uint32_t const band = in & ~held & ~near;
-        if (band) {
-          Vec3<A> const& w = loc.param;
-          vfloat<A> const w0 = vfloat<A>(1.f) - (w.x + w.y + w.z), tol(-probe_tet_tolerance);
-          // Comparisons, not a min: a flat tet's NaN weights must fail.
-          uint32_t const close = band & simd::movemask(w0 >= tol && w.x >= tol && w.y >= tol && w.z >= tol &&
-                                                       simd::abs(loc.value) <= vfloat<A>(std::numeric_limits<float>::max()));
-          if (close) {
-            alignas(64) float v_all[W];
-            simd::store(v_all, loc.value);
-            for (uint32_t b = close; b; b &= b - 1) near_value[__builtin_ctz(b)] = v_all[__builtin_ctz(b)];
-            near |= close;
-          }
+      if (uint32_t const band = in & ~held & ~near) {
+        uint32_t const close = band & simd::movemask(CellOps<A, N>::nearly_inside(loc, probe_tet_tolerance));
+        if (close) {
+          alignas(64) float v_all[W];
+          simd::store(v_all, loc.value);
+          for (uint32_t b = close; b; b &= b - 1) near_value[__builtin_ctz(b)] = v_all[__builtin_ctz(b)];
+          near |= close;
         }
       }
       if (!(m & pending)) return;
