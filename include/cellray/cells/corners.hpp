@@ -312,5 +312,25 @@ template <class A> inline Vec3<A> face_forward(Vec3<A> const& n, Vec3<A> const& 
   return select<A>(dot(n, dir) > vfloat<A>(0.f), vfloat<A>(-1.f) * n, n);
 }
 
+namespace isa_detail {
+
+/// The field (or a gradient component) along a clip's segment as a cubic in
+/// lambda = (t - t_in) / (t_out - t_in): what CellOps::segment_field gives.
+template <class A> struct Cubic {
+  vfloat<A> c0, c1, c2, c3;
+  vfloat<A> operator()(vfloat<A> const& x) const { return ((c3 * x + c2) * x + c1) * x + c0; }
+  vfloat<A> slope(vfloat<A> const& x) const { return (vfloat<A>(3.f) * c3 * x + vfloat<A>(2.f) * c2) * x + c1; }
+};
+
+/// The cubic through (0, f0), (1/3, f1), (2/3, f2), (1, f3) (Newton forward
+/// differences, step 1/3).
+template <class A> inline Cubic<A> cubic_through(vfloat<A> f0, vfloat<A> f1, vfloat<A> f2, vfloat<A> f3) {
+  vfloat<A> const d1 = f1 - f0, d2 = f2 - vfloat<A>(2.f) * f1 + f0;
+  vfloat<A> const d3 = f3 - vfloat<A>(3.f) * f2 + vfloat<A>(3.f) * f1 - f0;
+  return {f0, vfloat<A>(3.f) * d1 - vfloat<A>(1.5f) * d2 + d3, vfloat<A>(4.5f) * (d2 - d3), vfloat<A>(4.5f) * d3};
+}
+
+}  // namespace isa_detail
+
 }  // namespace CELLRAY_ISA_NS
 }  // namespace cellray

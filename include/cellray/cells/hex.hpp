@@ -838,20 +838,6 @@ inline Vec3<A> gradient_central_hex(CellCorners<A, 8> const& c, Vec3<A> const& p
 
 namespace isa_detail {
 
-template <class A> struct Cubic {
-  vfloat<A> c0, c1, c2, c3;
-  vfloat<A> operator()(vfloat<A> const& x) const { return ((c3 * x + c2) * x + c1) * x + c0; }
-  vfloat<A> slope(vfloat<A> const& x) const { return (vfloat<A>(3.f) * c3 * x + vfloat<A>(2.f) * c2) * x + c1; }
-};
-
-/// The cubic through (0, f0), (1/3, f1), (2/3, f2), (1, f3) (Newton forward
-/// differences, step 1/3).
-template <class A> inline Cubic<A> cubic_through(vfloat<A> f0, vfloat<A> f1, vfloat<A> f2, vfloat<A> f3) {
-  vfloat<A> const d1 = f1 - f0, d2 = f2 - vfloat<A>(2.f) * f1 + f0;
-  vfloat<A> const d3 = f3 - vfloat<A>(3.f) * f2 + vfloat<A>(3.f) * f1 - f0;
-  return {f0, vfloat<A>(3.f) * d1 - vfloat<A>(1.5f) * d2 + d3, vfloat<A>(4.5f) * (d2 - d3), vfloat<A>(4.5f) * d3};
-}
-
 /// The first crossing (f >= 0 predicate change) of the cubic in [start,1]
 /// (start per lane, in [0,1)), in `lanes`, with the values at 0 and 1 given
 /// exactly (canonical face values; at start > 0 the cubic's own value, so
@@ -1043,6 +1029,93 @@ inline CellIsoHit<A> iso_root_hex_neubauer(HexClip<A> const& clip, CellCorners<A
       clip, clip.hit && !has_nan_value(c), isovalues, count, steps,
       [&](vfloat<A> const& lam, vmask<A> const&) { return isa_detail::trilerp<A>(c.s, clip.u_in + lam * du); });
 }
+
+/// What the traversals call for hexahedra, and wedges and pyramids as
+/// hexahedra with repeated corners (cells/cell_ops.hpp).
+template <class A> struct CellOps<A, 8> {
+  using Clip = HexClip<A>;
+  /// Trilinear: the field along a ray may exceed its end values.
+  static constexpr bool linear_on_ray = false;
+  /// Hits and located points keep their trilinear coordinates: the
+  /// gradient and any per-vertex weights there need no second inversion.
+  static constexpr bool keeps_param = true;
+  static Clip clip(RayBatch<A> const& r, CellCorners<A, 8> const& c) { return clip_hex(r, c); }
+  static Clip clip_window(RayBatch<A> const& r, CellCorners<A, 8> const& c, vmask<A> const& lanes,
+                          vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face = nullptr) {
+    return clip_hex_window(r, c, lanes, t_lo, t_hi, exit_face);
+  }
+  static constexpr bool march_reuses_corners = false;
+  static constexpr bool occlusion_in_pairs = false;
+  /// `param`, if given, receives the trilinear coordinates of the hit in
+  /// hit lanes (iso_root_hex's; for Neubauer one inversion at the root).
+  /// `t_from`: the exact method's search start (see iso_root_hex);
+  /// Neubauer, which misses pairs of crossings in a cell anyway, ignores it.
+  static CellIsoHit<A> iso(RayBatch<A> const& r, Clip const& k, CellCorners<A, 8> const& c, float const* isos,
+                           int count, CellIsoOptions const& o, Vec3<A>* param = nullptr,
+                           vfloat<A> const* t_from = nullptr) {
+    if (o.method == CellIsoMethod::exact) return iso_root_hex(r, k, c, isos, count, o.refine_steps, param, t_from);
+    CellIsoHit<A> const h = iso_root_hex_neubauer(r, k, c, isos, count, o.neubauer_steps);
+    if (param && simd::any(h.hit)) {
+      vfloat<A> const dt = k.t_out - k.t_in;
+      vfloat<A> const lam = simd::select(h.hit, (h.t - k.t_in) / dt, vfloat<A>(0.f));
+      vmask<A> conv;
+      Vec3<A> const u = isa_detail::invert_hex(c, r.origin() + simd::select(h.hit, h.t, k.t_in) * r.dir(),
+                                           k.u_in + lam * (k.u_out - k.u_in), h.hit, hex_newton_cap, conv);
+      *param = select<A>(h.hit, u, *param);
+    }
+    return h;
+  }
+  static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 8> const& c) { return locate_hex(p, c); }
+  /// Only the lanes in `lanes` (the iteration ends when they converge).
+  static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 8> const& c, vmask<A> const& lanes) {
+    return locate_hex(p, c, lanes);
+  }
+  /// None: locate_hex's containment is widened already (hex_inside_tolerance).
+  static vmask<A> nearly_inside(Located<A> const& /*loc*/, float /*tol*/) { return simd::no_lanes<A>(); }
+  static Vec3<A> gradient(CellCorners<A, 8> const& c, Vec3<A> const& p, GradientMethod m, float h) {
+    Located<A> const l = locate_hex(PointBatch<A>{p.x, p.y, p.z}, c);
+    return m != GradientMethod::central ? gradient_hex(c, l.param) : gradient_central_hex(c, p, l.param, h);
+  }
+  static Vec3<A> gradient_at(CellCorners<A, 8> const& c, Vec3<A> const& param) { return gradient_hex(c, param); }
+  /// Trilinear, in VTK corner order (the mesh's own, as the kernels keep it).
+  static void shape_weights(Vec3<A> const& param, vfloat<A> (&w)[8]) { trilinear_weights<A>(param, w); }
+  /// Kept coordinates that can stand for a located point (see hex_param_in_cell).
+  static vmask<A> param_in_cell(Vec3<A> const& param) { return hex_param_in_cell<A>(param); }
+
+  /// The field on the ray at lambda of the clip's segment: its value, and
+  /// its trilinear coordinates in `u`. A lane whose inversion neither
+  /// converges nor stays near the cell keeps the parametric guess (never a
+  /// wild value).
+  static vfloat<A> field_on_ray(RayBatch<A> const& ray, CellCorners<A, 8> const& c, Clip const& k,
+                                vmask<A> const& lanes, float lam, Vec3<A>& u) {
+    vfloat<A> const l(lam);
+    Vec3<A> const guess = k.u_in + l * (k.u_out - k.u_in);
+    vmask<A> conv;
+    u = isa_detail::invert_hex(c, ray.origin() + (k.t_in + l * (k.t_out - k.t_in)) * ray.dir(), guess, lanes, 6, conv);
+    u = select<A>(conv || isa_detail::in_unit_cube<A>(u, 0.05f), u, guess);
+    return isa_detail::trilerp<A>(c.s, u);
+  }
+
+  /// The field on the clip's segment (see the tet's): the cubic through its
+  /// values at lambda = 0, 1/3, 2/3, 1 (the ends: the clip's face values;
+  /// inside: inversions warm-started on the parametric segment), and the
+  /// gradient as the cubic through the analytic gradients there. Exact for
+  /// parallelepipeds.
+  static void segment_field(RayBatch<A> const& ray, CellCorners<A, 8> const& c, Clip const& k,
+                            vmask<A> const& lanes, isa_detail::Cubic<A>& f, isa_detail::Cubic<A>* g) {
+    Vec3<A> u1, u2;
+    vfloat<A> const v1 = field_on_ray(ray, c, k, lanes, 1.f / 3.f, u1);
+    vfloat<A> const v2 = field_on_ray(ray, c, k, lanes, 2.f / 3.f, u2);
+    f = isa_detail::cubic_through<A>(k.s_in, v1, v2, k.s_out);
+    if (g) {
+      Vec3<A> const g0 = isa_detail::hex_world_gradient(c, k.u_in), g1 = isa_detail::hex_world_gradient(c, u1);
+      Vec3<A> const g2 = isa_detail::hex_world_gradient(c, u2), g3 = isa_detail::hex_world_gradient(c, k.u_out);
+      g[0] = isa_detail::cubic_through<A>(g0.x, g1.x, g2.x, g3.x);
+      g[1] = isa_detail::cubic_through<A>(g0.y, g1.y, g2.y, g3.y);
+      g[2] = isa_detail::cubic_through<A>(g0.z, g1.z, g2.z, g3.z);
+    }
+  }
+};
 
 }  // namespace CELLRAY_ISA_NS
 }  // namespace cellray

@@ -23,7 +23,9 @@
 
 #include <limits>
 
+#include "cell_ops.hpp"
 #include "corners.hpp"
+#include "queries.hpp"
 
 namespace cellray {
 inline namespace CELLRAY_ISA_NS {
@@ -372,6 +374,76 @@ inline CellIsoHit<A> iso_root_tet_neubauer(RayBatch<A> const& ray, CellClip<A> c
                                          return interpolate_tet(c, o + (clip.t_in + lam * dt) * d);
                                        });
 }
+
+/// What the traversals call for tetrahedra (cells/cell_ops.hpp).
+template <class A> struct CellOps<A, 4> {
+  using Clip = CellClip<A>;
+  /// The field is linear along a ray: a clip's end values bound it on the
+  /// segment and give it anywhere on it (no point location).
+  static constexpr bool linear_on_ray = true;
+  /// A hit or located point has no cell coordinates worth keeping.
+  static constexpr bool keeps_param = false;
+  static Clip clip(RayBatch<A> const& r, CellCorners<A, 4> const& c) { return clip_tet(r, c); }
+  /// The clip narrowed to [t_lo, t_hi]; `exit_face`, if given, receives the
+  /// face (mesh face order, FaceNeighbours') the ray leaves through.
+  static Clip clip_window(RayBatch<A> const& r, CellCorners<A, 4> const& c, vmask<A> const& lanes,
+                          vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face = nullptr) {
+    return clip_tet_window(r, c, lanes, t_lo, t_hi, exit_face);
+  }
+  /// A march's next cell shares a face's corners with the last one: the
+  /// march gathers only the one it does not share (CellMarch::next_corners).
+  static constexpr bool march_reuses_corners = true;
+  /// Grouped occlusion queries clip (cell, ray) pairs, W per kernel call,
+  /// instead of each cell against every packet that meets it: a tet's clip
+  /// is cheap against its broadcast (TetPairs in occlusion.hpp, tets only).
+  static constexpr bool occlusion_in_pairs = true;
+  /// `param` is for hexes (hit coordinates); tets leave it alone.
+  /// `t_from` is for hexes too: a tet holds one crossing per isovalue.
+  static CellIsoHit<A> iso(RayBatch<A> const& r, Clip const& k, CellCorners<A, 4> const& c, float const* isos,
+                           int count, CellIsoOptions const& o, Vec3<A>* /*param*/ = nullptr,
+                           vfloat<A> const* /*t_from*/ = nullptr) {
+    return o.method == CellIsoMethod::exact ? iso_root_tet(k, c, isos, count)
+                                            : iso_root_tet_neubauer(r, k, c, isos, count, o.neubauer_steps);
+  }
+  static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 4> const& c) { return locate_tet(p, c); }
+  static Located<A> locate(PointBatch<A> const& p, CellCorners<A, 4> const& c, vmask<A> const& /*lanes*/) {
+    return locate_tet(p, c);
+  }
+  /// Lanes that `locate` left outside by at most `tol` in the cell's own
+  /// coordinates, with a finite value: a probe's fallback where rounding put
+  /// a point on a shared edge or vertex outside every cell (probe.hpp).
+  /// Comparisons, not a min: a flat tet's NaN weights must fail.
+  static vmask<A> nearly_inside(Located<A> const& loc, float tol) {
+    Vec3<A> const& w = loc.param;
+    vfloat<A> const w0 = vfloat<A>(1.f) - (w.x + w.y + w.z), t(-tol);
+    return w0 >= t && w.x >= t && w.y >= t && w.z >= t &&
+           simd::abs(loc.value) <= vfloat<A>(std::numeric_limits<float>::max());
+  }
+  static Vec3<A> gradient(CellCorners<A, 4> const& c, Vec3<A> const& p, GradientMethod m, float h) {
+    return m != GradientMethod::central ? gradient_tet(c) : gradient_central_tet(c, p, h);
+  }
+  /// The analytic gradient at a point of the cell given by its coordinates
+  /// (keeps_param; a tet's is one per cell and ignores them).
+  static Vec3<A> gradient_at(CellCorners<A, 4> const& c, Vec3<A> const& /*param*/) { return gradient_tet(c); }
+  /// The shape functions at a located point's coordinates (locate's param:
+  /// barycentric 1 to 3), one per corner in the located corners' order.
+  static void shape_weights(Vec3<A> const& param, vfloat<A> (&w)[4]) {
+    w[1] = param.x, w[2] = param.y, w[3] = param.z;
+    w[0] = vfloat<A>(1.f) - w[1] - w[2] - w[3];
+  }
+  /// The field on the clip's segment as a cubic in lambda = (t - t_in) /
+  /// (t_out - t_in) (here the line between its end values) and, if `g` is
+  /// given, its world-space gradient as three (here the cell's constant one).
+  static void segment_field(RayBatch<A> const& /*r*/, CellCorners<A, 4> const& c, Clip const& k,
+                            vmask<A> const& /*lanes*/, isa_detail::Cubic<A>& f, isa_detail::Cubic<A>* g) {
+    vfloat<A> const zero(0.f);
+    f = {k.s_in, k.s_out - k.s_in, zero, zero};
+    if (g) {
+      Vec3<A> const d = gradient_tet(c);
+      g[0] = {d.x, zero, zero, zero}, g[1] = {d.y, zero, zero, zero}, g[2] = {d.z, zero, zero, zero};
+    }
+  }
+};
 
 }  // namespace CELLRAY_ISA_NS
 }  // namespace cellray
