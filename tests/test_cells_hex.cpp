@@ -381,7 +381,8 @@ TEST_CASE("ref::FieldOnRay: hex crossings agree with the 512-step oracle, cuts a
       CHECK(x > k.t_in);
       CHECK(x < k.t_out);
       REQUIRE(f.at(x, v, nullptr));
-      double const nearest = std::min({std::abs(v - controls[0]), std::abs(v - controls[1]), std::abs(v - controls[2])});
+      double nearest = std::abs(v - controls[0]);
+      for (float cv : controls) nearest = std::min(nearest, std::abs(v - cv));
       CHECK(nearest <= 1e-9 * (hi - lo));
       ++cuts;
     }

@@ -484,7 +484,7 @@ template <int N> class FieldOnRay;
 template <> class FieldOnRay<4> {
  public:
   /// `root_samples` is unused (a hex's sampling density for crossings).
-  FieldOnRay(Tet const& c, Ray const& r, int root_samples = 2) : c_(c), r_(r), k_(ref::clip(c, r)) { (void)root_samples; }
+  FieldOnRay(Tet const& c, Ray const& r, int /*root_samples*/ = 2) : c_(c), r_(r), k_(ref::clip(c, r)) {}
   Clip const& clip() const { return k_; }
   /// The value at t (on the clip's line) and the constant gradient; false never.
   bool at(double t, double& value, dvec3* grad) const {

@@ -360,7 +360,8 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
             Vec3<A> n{};
             vfloat<A> v(0.f);
             vmask<A> const done = pp.visit([&](auto const& mesh, auto const*) {
-              return hit_attributes_packet<A>(pp, mesh, in_part, h.item, hit_pos, h.param, dir, smooth, s.color_by, n, v);
+              return hit_attributes_packet<A>(pp, mesh, in_part, h.item, hit_pos, h.param, dir, smooth, s.color_by, n,
+                                              v);
             });
             pn = select<A>(done, n, pn);
             pv = simd::select(done, v, pv);
@@ -480,9 +481,10 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
               RayPacket<A> const arp = load_rays<A>(ar, W);
               vmask<A> undecided;
               vfloat<A> t_done;
-              uint32_t const occ = simd::movemask(march_occluded<A>(part.tree, *ao_tets->mesh, *ao_tets->neighbours, arp, lanes,
-                                                                    hit_cells, isos, p.roots, undecided, t_done)) &
-                                   hit_bits;
+              uint32_t const occ =
+                  simd::movemask(march_occluded<A>(part.tree, *ao_tets->mesh, *ao_tets->neighbours, arp, lanes,
+                                                   hit_cells, isos, p.roots, undecided, t_done)) &
+                  hit_bits;
               for (int l = 0; l < W; ++l)
                 if (occ >> l & 1u) occlusion[l] += 1.f / float(p.ao_samples);
               auto const from = simd::to_array<A>(t_done);

@@ -113,7 +113,8 @@ namespace cellray {
 template <class Arch>
 void SampleEntry<Arch>::run(TreeView const& tree, AnyCellMesh mesh, Ray const* rays, uint64_t n, float step,
                             int per_ray, int group, Traversal how, ValueWindows const& windows, float* out) {
-  mesh.visit([&](auto const& m) { impl::sample_rays<Arch>(tree, m, rays, n, step, per_ray, group, how, windows, out); });
+  mesh.visit(
+      [&](auto const& m) { impl::sample_rays<Arch>(tree, m, rays, n, step, per_ray, group, how, windows, out); });
 }
 }  // namespace cellray
 
