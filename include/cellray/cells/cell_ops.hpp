@@ -25,8 +25,10 @@
 //   march_reuses_corners      a march's next cell shares a face's corners
 //   occlusion_in_pairs        grouped occlusion clips (cell, ray) pairs
 // A new type adds its file here, its corner count to mesh/cell_types.hpp's
-// CellTypes, its FaceNeighbours faces (mesh/neighbours.hpp) and its double
-// reference (cells/reference.hpp: load, clip, locate, FieldOnRay<N>).
+// CellTypes, its FaceNeighbours faces (mesh/neighbours.hpp), its double
+// reference (cells/reference.hpp: load, clip, locate, FieldOnRay<N>), and,
+// while Scene keeps one vector per type, its vector there (Scene::parts<N>,
+// render.hpp) and its name in cell_type_adjective.
 
 #include "../simd/arch.hpp"
 

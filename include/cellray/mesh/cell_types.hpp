@@ -20,8 +20,8 @@ template <int... Corners> struct CellTypeList {};
 /// The cell types, by corner count: 4 the tetrahedron (VTK 10), 8 the
 /// hexahedron (VTK 12; wedges and pyramids are read as hexahedra with
 /// repeated corners, which is VTK's interpolation exactly: vtk_cells.hpp).
-/// A new type is its kernels in cells/, its `CellOps<A, N>` in
-/// traverse/cell_ops.hpp, and its corner count here.
+/// A new type is its file in cells/ (kernels and `CellOps<A, N>`; what
+/// that provides: cells/cell_ops.hpp) and its corner count here.
 using CellTypes = CellTypeList<4, 8>;
 
 /// How messages name a type's parts ("tetrahedral part 2").
