@@ -99,10 +99,12 @@ void MixedMarchProbe<Arch>::run(TetMesh const& tets, MinMaxBvh const& tet_bvh, T
 
 CELLRAY_INSTANTIATE_ENTRY(MixedMarchProbe)
 
-template <class Arch>
-void MarchOcclusionProbe<Arch>::run(TetMesh const& mesh, MinMaxBvh const& bvh, TetNeighbours const& nb,
-                                    Ray const* rays, int32_t const* start, int n, IsoSet const& isos,
-                                    uint8_t* occluded, uint8_t* undecided, float* t_done) {
+namespace {
+
+template <class Arch, int N>
+void march_occlusion(CellMesh<N> const& mesh, MinMaxBvh const& bvh, FaceNeighbours<N> const& nb, Ray const* rays,
+                     int32_t const* start, int n, IsoSet const& isos, uint8_t* occluded, uint8_t* undecided,
+                     float* t_done) {
   constexpr int W = width<Arch>;
   TreeView const tree(bvh);
   CellIsoOptions const exact;
@@ -124,6 +126,22 @@ void MarchOcclusionProbe<Arch>::run(TetMesh const& mesh, MinMaxBvh const& bvh, T
       t_done[first + l] = d[size_t(l)];
     }
   }
+}
+
+}  // namespace
+
+template <class Arch>
+void MarchOcclusionProbe<Arch>::run(TetMesh const& mesh, MinMaxBvh const& bvh, TetNeighbours const& nb,
+                                    Ray const* rays, int32_t const* start, int n, IsoSet const& isos,
+                                    uint8_t* occluded, uint8_t* undecided, float* t_done) {
+  march_occlusion<Arch>(mesh, bvh, nb, rays, start, n, isos, occluded, undecided, t_done);
+}
+
+template <class Arch>
+void MarchOcclusionProbe<Arch>::run(HexMesh const& mesh, MinMaxBvh const& bvh, HexNeighbours const& nb,
+                                    Ray const* rays, int32_t const* start, int n, IsoSet const& isos,
+                                    uint8_t* occluded, uint8_t* undecided, float* t_done) {
+  march_occlusion<Arch>(mesh, bvh, nb, rays, start, n, isos, occluded, undecided, t_done);
 }
 
 CELLRAY_INSTANTIATE_ENTRY(MarchOcclusionProbe)

@@ -2,9 +2,9 @@
 // query renders the image of the nearest-hit query bit for bit (opaque
 // surfaces, semi-transparent ones of one opacity, and of several opacities,
 // where shadows keep the nearest hit's opacity), on tets, hexes and a
-// two-part scene, tets with face neighbours (AO rays march) with and
-// without holes; and the default matches the double-precision reference
-// renderer with shadows and AO.
+// two-part scene, tets and hexes with face neighbours (AO rays march) with
+// and without holes; and the default matches the double-precision
+// reference renderer with shadows and AO.
 
 #include <catch2/catch.hpp>
 
@@ -78,6 +78,20 @@ void check_queries_agree(std::string const& name, Scene const& scene, int size) 
 
 constexpr int frame = test::full_or_sanitized(64, 32);
 
+/// The generated mesh's cells less two slabs (their centroids' |x| <= 0.15
+/// or |y - 0.3| <= 0.1): AO rays leave the mesh through the holes' faces.
+template <int N> std::vector<uint32_t> with_holes(GeneratedMesh<N> const& g) {
+  std::vector<uint32_t> out;
+  for (size_t c = 0; c + N <= g.cells.size(); c += N) {
+    glm::vec3 m(0.f);
+    for (int i = 0; i < N; ++i) m += glm::vec3(g.xyz[3 * g.cells[c + i]], g.xyz[3 * g.cells[c + i] + 1], g.xyz[3 * g.cells[c + i] + 2]);
+    m *= 1.f / float(N);
+    if (std::abs(m.x) > 0.15f && std::abs(m.y - 0.3f) > 0.1f) out.insert(out.end(), &g.cells[c], &g.cells[c] + N);
+  }
+  return out;
+}
+
+
 }  // namespace
 
 TEST_CASE("shadow and AO queries: occlusion, sorted, grouped and march render the nearest-hit image bit for bit",
@@ -91,18 +105,18 @@ TEST_CASE("shadow and AO queries: occlusion, sorted, grouped and march render th
   // a mesh with holes makes AO rays leave it and finish in the tree.
   TetNeighbours const nb = build_tet_neighbours(lt->mesh);
   check_queries_agree("tets with face neighbours", Scene(lt->mesh, lt->bvh, nullptr, &nb), frame);
-  std::vector<uint32_t> holed;
-  for (size_t c = 0; c + 4 <= t.cells.size(); c += 4) {
-    glm::vec3 m(0.f);
-    for (int i = 0; i < 4; ++i) m += glm::vec3(t.xyz[3 * t.cells[c + i]], t.xyz[3 * t.cells[c + i] + 1], t.xyz[3 * t.cells[c + i] + 2]);
-    m *= 0.25f;
-    if (std::abs(m.x) > 0.15f && std::abs(m.y - 0.3f) > 0.1f) holed.insert(holed.end(), &t.cells[c], &t.cells[c] + 4);
-  }
+  std::vector<uint32_t> const holed = with_holes(t);
   auto const lholed = test::load(TetMesh{view(t.xyz), view(holed), view(t.field)});
   TetNeighbours const nb_holed = build_tet_neighbours(lholed->mesh);
   check_queries_agree("tets with holes and face neighbours", Scene(lholed->mesh, lholed->bvh, nullptr, &nb_holed),
                       frame);
   check_queries_agree("hexes", lh->scene(), frame);
+  HexNeighbours const hnb = build_hex_neighbours(lh->mesh);
+  check_queries_agree("hexes with face neighbours", Scene(lh->mesh, lh->bvh, nullptr, &hnb), frame);
+  std::vector<uint32_t> const hex_holed = with_holes(h);
+  auto const lhex_holed = test::load(HexMesh{view(h.xyz), view(hex_holed), view(h.field)});
+  HexNeighbours const hnb_holed = build_hex_neighbours(lhex_holed->mesh);
+  check_queries_agree("hexes with holes and face neighbours", Scene(lhex_holed->mesh, lhex_holed->bvh, nullptr, &hnb_holed), frame);
   Scene both = lt->scene();  // two overlapping parts: a ray occluded by the first skips the second
   both.hexes.push_back({lh->mesh, &lh->bvh, nullptr});
   check_queries_agree("tets + hexes", both, frame);
@@ -114,8 +128,9 @@ TEST_CASE("fast vs reference: shadows and ambient occlusion with the default sec
   auto const lt = test::load(t.mesh());
   auto const lh = test::load(h.mesh());
   TetNeighbours const nb = build_tet_neighbours(lt->mesh);
+  HexNeighbours const hnb = build_hex_neighbours(lh->mesh);
   for (int which = 0; which < 2; ++which) {
-    Scene const scene = which == 0 ? Scene(lt->mesh, lt->bvh, nullptr, &nb) : lh->scene();
+    Scene const scene = which == 0 ? Scene(lt->mesh, lt->bvh, nullptr, &nb) : Scene(lh->mesh, lh->bvh, nullptr, &hnb);
     Camera const cam = test::camera_for(scene, 2 * frame, 2 * frame);
     RenderOptions const o = test::isa_options();
     REQUIRE(o.secondary_query == SecondaryQuery::march);

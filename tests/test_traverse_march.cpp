@@ -123,12 +123,12 @@ void check_ray(TetMesh const& mesh, Ray const& r, ValueWindows const& w, MarchPr
 
 /// The generated mesh's cells with those whose centroid satisfies `drop`
 /// removed (same vertices).
-std::vector<uint32_t> cells_without(GeneratedMesh<4> const& g, bool (*drop)(glm::vec3)) {
+template <int N> std::vector<uint32_t> cells_without(GeneratedMesh<N> const& g, bool (*drop)(glm::vec3)) {
   std::vector<uint32_t> out;
-  for (size_t c = 0; c + 4 <= g.cells.size(); c += 4) {
+  for (size_t c = 0; c + N <= g.cells.size(); c += N) {
     glm::vec3 m(0.f);
-    for (int i = 0; i < 4; ++i) m += glm::vec3(g.xyz[3 * g.cells[c + i]], g.xyz[3 * g.cells[c + i] + 1], g.xyz[3 * g.cells[c + i] + 2]);
-    if (!drop(0.25f * m)) out.insert(out.end(), g.cells.begin() + long(c), g.cells.begin() + long(c) + 4);
+    for (int i = 0; i < N; ++i) m += glm::vec3(g.xyz[3 * g.cells[c + i]], g.xyz[3 * g.cells[c + i] + 1], g.xyz[3 * g.cells[c + i] + 2]);
+    if (!drop(m / float(N))) out.insert(out.end(), g.cells.begin() + long(c), g.cells.begin() + long(c) + N);
   }
   return out;
 }
@@ -367,18 +367,31 @@ TEST_CASE("march: a mixed mesh's tets and hexahedra (wedges, pyramids) march as 
 namespace {
 
 /// Short rays from random points inside random cells (as AO rays leave an
-/// isosurface hit inside its hit cell), with the cell they start in.
-void ao_like_rays(TetMesh const& mesh, int n, uint32_t seed, float radius, std::vector<Ray>& rays,
+/// isosurface hit inside its hit cell), with the cell they start in: tets
+/// at random barycentric weights, hexahedra at random trilinear coordinates
+/// in [0.05, 0.95]^3.
+template <int N>
+void ao_like_rays(CellMesh<N> const& mesh, int n, uint32_t seed, float radius, std::vector<Ray>& rays,
                   std::vector<int32_t>& start) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u01(0.f, 1.f), u(-1.f, 1.f);
   std::uniform_int_distribution<uint64_t> pick(0, mesh.cell_count() - 1);
   for (int i = 0; i < n; ++i) {
     uint64_t const c = pick(rng);
-    float w[4], sum = 0.f;
-    for (float& x : w) sum += (x = 0.05f + u01(rng));
+    float w[N];
+    if constexpr (N == 4) {
+      float sum = 0.f;
+      for (float& x : w) sum += (x = 0.05f + u01(rng));
+      for (float& x : w) x /= sum;
+    } else {
+      float const uvw[3] = {0.05f + 0.9f * u01(rng), 0.05f + 0.9f * u01(rng), 0.05f + 0.9f * u01(rng)};
+      for (int k = 0; k < 8; ++k) {  // VTK order: bit 0 of (k ^ k >> 1) is u, bit 1 of k is v, bit 2 w
+        int const iu = (k ^ (k >> 1)) & 1, iv = (k >> 1) & 1, iw = (k >> 2) & 1;
+        w[k] = (iu ? uvw[0] : 1 - uvw[0]) * (iv ? uvw[1] : 1 - uvw[1]) * (iw ? uvw[2] : 1 - uvw[2]);
+      }
+    }
     glm::vec3 p(0.f);
-    for (int k = 0; k < 4; ++k) p += (w[k] / sum) * mesh.position(mesh.vertex(c, k));
+    for (int k = 0; k < N; ++k) p += w[k] * mesh.position(mesh.vertex(c, k));
     glm::vec3 d(u(rng), u(rng), u(rng));
     if (!(glm::length(d) > 0.1f)) d = glm::vec3(0.3f, 0.5f, 0.8f);
     rays.push_back({p, 1e-5f, glm::normalize(d), radius});
@@ -386,17 +399,18 @@ void ao_like_rays(TetMesh const& mesh, int n, uint32_t seed, float radius, std::
   }
 }
 
-}  // namespace
-
-TEST_CASE("march: occlusion of short rays from known cells answers as the tree does", "[traverse][isa]") {
-  // A convex mesh, and one with a hole the rays may cross (leaving the mesh:
-  // the march cannot finish those, the tree must).
-  auto const g = generate_tets(6 * 10 * 10 * 10, 11);
+/// march_occluded from known cells against the tree's occlusion query, on
+/// a convex mesh and on one with a slab removed (rays leaving the mesh there
+/// are the tree's to finish).
+template <int N> void check_march_occlusion(GeneratedMesh<N> const& g, char const* type) {
   std::vector<uint32_t> const holed = cells_without(g, [](glm::vec3 c) { return std::abs(c.x) < 0.2f; });
   for (bool hole : {false, true}) {
-    TetMesh const mesh = hole ? TetMesh{view(g.xyz), view(holed), view(g.field)} : g.mesh();
+    CellMesh<N> const mesh = hole ? CellMesh<N>{view(g.xyz), view(holed), view(g.field)} : g.mesh();
     MinMaxBvh const bvh = build_minmax_bvh(mesh);
-    TetNeighbours const nb = build_tet_neighbours(mesh);
+    FaceNeighbours<N> const nb = [&] {
+      if constexpr (N == 4) return build_tet_neighbours(mesh);
+      else return build_hex_neighbours(mesh);
+    }();
     TreeView const tree(bvh);
     std::vector<Ray> rays;
     std::vector<int32_t> start;
@@ -430,16 +444,24 @@ TEST_CASE("march: occlusion of short rays from known cells answers as the tree d
       differ += answer != (tree_answer[size_t(i)] != 0);
       occluded += answer;
     }
-    INFO((hole ? "with a hole" : "convex") << ": " << occluded << " occluded, " << undecided << " undecided of " << n
-                                          << ", " << undecided_inside << " of those ending inside the cube");
+    INFO(type << (hole ? ", with a hole" : ", convex") << ": " << occluded << " occluded, " << undecided
+              << " undecided of " << n << ", " << undecided_inside << " of those ending inside the cube");
     CHECK(differ == 0);
     CHECK(occluded > n / 10);
     CHECK(occluded < n - n / 10);
     // Only rays that leave the mesh are left to the tree (a march that gave
-    // up on every ray would leave them all).
-    if (!hole) CHECK(undecided_inside == 0);
+    // up on every ray would leave them all), but for a hexahedron's exit
+    // face picked wrong next to an edge (CellMarch's file comment).
+    if (!hole) CHECK(undecided_inside <= (N == 4 ? 0 : n / 100));
     CHECK(undecided < n / 2);
   }
+}
+
+}  // namespace
+
+TEST_CASE("march: occlusion of short rays from known cells answers as the tree does", "[traverse][isa]") {
+  check_march_occlusion(generate_tets(6 * 10 * 10 * 10, 11), "tets");
+  check_march_occlusion(generate_hexes(10 * 10 * 10, 11), "hexahedra");
 }
 
 }  // namespace test_traverse_march

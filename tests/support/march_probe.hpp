@@ -48,9 +48,13 @@ CELLRAY_EXTERN_ENTRY(MixedMarchProbe)
 
 /// march_occluded (traverse/march.hpp) on `rays[i]` starting in cell
 /// `start[i]`, packets of W: per ray occluded (1/0), undecided (1/0: the
-/// march could not finish) and how far it got without a crossing.
+/// march could not finish) and how far it got without a crossing. Tets or
+/// hexahedra.
 template <class Arch> struct MarchOcclusionProbe {
   static void run(TetMesh const& mesh, MinMaxBvh const& bvh, TetNeighbours const& nb, Ray const* rays,
+                  int32_t const* start, int n, IsoSet const& isos, uint8_t* occluded, uint8_t* undecided,
+                  float* t_done);
+  static void run(HexMesh const& mesh, MinMaxBvh const& bvh, HexNeighbours const& nb, Ray const* rays,
                   int32_t const* start, int n, IsoSet const& isos, uint8_t* occluded, uint8_t* undecided,
                   float* t_done);
 };

@@ -265,11 +265,9 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
   bool const param_attributes = attributes && std::any_of(s.parts.begin(), s.parts.end(), keeps_param);
   // Any-hit shadow rays need one opacity for every surface (see the shadow block).
   bool const secondary = p.shadows || p.ao_samples > 0;
-  // AO rays march from their hit cells where the scene allows (one part with
-  // face neighbours, of tets: march_occluded is written for tets only);
-  // elsewhere `march` is `grouped`.
-  PartCells<4> const* const ao_tets = s.parts.size() == 1 ? s.parts[0].cells_of<4>() : nullptr;
-  bool const march_ao = o.secondary_query == SecondaryQuery::march && ao_tets && ao_tets->neighbours;
+  // AO rays march from their hit cells where the scene allows (one part,
+  // with face neighbours); elsewhere `march` is `grouped`.
+  bool const march_ao = o.secondary_query == SecondaryQuery::march && s.parts.size() == 1 && s.parts[0].marches();
   bool one_opacity = true;
   for (IsoSurface const& surf : p.surfaces) one_opacity = one_opacity && surf.opacity == p.surfaces[0].opacity;
   vfloat<A> const zero(0.f), one(1.f);
@@ -481,10 +479,11 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
               RayPacket<A> const arp = load_rays<A>(ar, W);
               vmask<A> undecided;
               vfloat<A> t_done;
-              uint32_t const occ =
-                  simd::movemask(march_occluded<A>(part.tree, *ao_tets->mesh, *ao_tets->neighbours, arp, lanes,
-                                                   hit_cells, isos, p.roots, undecided, t_done)) &
-                  hit_bits;
+              uint32_t const occ = simd::movemask(part.visit([&](auto const& mesh, auto const* neighbours) {
+                                     return march_occluded<A>(part.tree, mesh, *neighbours, arp, lanes, hit_cells,
+                                                              isos, p.roots, undecided, t_done);
+                                   })) &
+                                   hit_bits;
               for (int l = 0; l < W; ++l)
                 if (occ >> l & 1u) occlusion[l] += 1.f / float(p.ao_samples);
               auto const from = simd::to_array<A>(t_done);

@@ -41,10 +41,12 @@ template <int N> struct ScenePart {
   /// (build_vertex_gradients, 12 bytes per vertex; again for a time step).
   VertexGradients const* gradients = nullptr;
   /// Face neighbours (build_hex_neighbours, 24 bytes per cell): cell-segment
-  /// DVR marches through them, as a tet part's (see ScenePart<4>: one part,
-  /// or a tet and a hexahedral part linked by link_face_neighbours). Faster where cells are small against a packet's footprint (1M
-  /// hexes at 1024x1024, 1 thread: 1.4-1.8x the rays per second); coarse
-  /// meshes do as well through the tree (boxturb48's 110k: 0.9-1.1x).
+  /// DVR and AO rays march through them, as a tet part's (see ScenePart<4>:
+  /// one part, or a tet and a hexahedral part linked by
+  /// link_face_neighbours, where only DVR marches). Faster where cells are
+  /// small against a packet's footprint (1M hexes at 1024x1024, 1 thread:
+  /// DVR 1.4-1.8x the rays per second); coarse meshes do as well through
+X
   HexNeighbours const* neighbours = nullptr;
 };
 
@@ -56,7 +58,8 @@ template <int N> struct ScenePart {
 /// to rounding (AO: bit for bit); without them (nullptr) both use the tree
 /// alone. Used when a scene has one part, or exactly one tet and one
 /// hexahedral part whose neighbours link_face_neighbours linked (a mixed
-/// mesh's two parts: DVR marches across both), and for meshes whose gather
+/// mesh's two parts: DVR marches across both, AO rays use the tree), and
+/// for meshes whose gather
 /// offsets fit 31 bits (under 2^29 cells and 2^31 / 3 vertices).
 template <> struct ScenePart<4> {
   CellMesh<4> mesh;

@@ -2,7 +2,7 @@
 // Marching rays from cell to cell through face neighbours (mesh/neighbours.hpp),
 // one ray per lane: cell-segment DVR (CellMarch: tets, and hexahedra with the
 // wedges and pyramids read as collapsed ones) and the occlusion of short
-// rays that start in known tets (march_occluded, ambient occlusion). Not in
+// rays that start in known cells (march_occluded, ambient occlusion). Not in
 // the paper. ISA units only.
 //
 // A packet traversal clips every cell of every leaf the packet reaches; on a
@@ -330,20 +330,21 @@ template <class A> struct MixedMarch {
 
 /// Occlusion (any hit, traverse/occlusion.hpp) of short rays that start in
 /// known cells (ambient-occlusion rays leave an isosurface hit in its hit
-/// cell): lanes of `active` march from `start` over [r.tmin, r.tmax], each
-/// cell tested with the occlusion query's kernel (iso_in_clip) on the
-/// march's clip. Returns the occluded lanes; `undecided` gets the lanes the
-/// march could not finish (left the mesh through a boundary face before
-/// r.tmax, or made no progress, e.g. an origin just outside its start
-/// cell) and `t_done` how far each lane got without a crossing: the caller
-/// asks the tree for [t_done, r.tmax] of those.
-template <class A>
-inline vmask<A> march_occluded(TreeView const& tree, TetMesh const& mesh, TetNeighbours const& nb,
+/// cell), of any cell type: lanes of `active` march from `start` over
+/// [r.tmin, r.tmax], each cell tested with the occlusion query's kernel
+/// (iso_in_clip) on the march's clip. Returns the occluded lanes;
+/// `undecided` gets the lanes the march could not finish (left the mesh
+/// through a boundary face before r.tmax, or made no progress: an origin
+/// just outside its start cell, a hexahedron's exit face picked wrong next
+/// to an edge) and `t_done` how far each lane got without a crossing: the
+/// caller asks the tree for [t_done, r.tmax] of those.
+template <class A, int N>
+inline vmask<A> march_occluded(TreeView const& tree, CellMesh<N> const& mesh, FaceNeighbours<N> const& nb,
                                RayPacket<A> const& r, vmask<A> const& active, vint<A> const& start,
                                IsoSet const& isos, CellIsoOptions const& method, vmask<A>& undecided,
                                vfloat<A>& t_done) {
   ValueWindows const all;
-  TetMarch<A> m(tree, mesh, nb, r, all, r.tmin, r.tmax);
+  CellMarch<A, N> m(tree, mesh, nb, r, all, r.tmin, r.tmax);
   m.max_faint = std::numeric_limits<int32_t>::max() - 1;  // no value filter: every cell is tested
   m.cell = simd::select(simd::to_int_mask(active), start, vint<A>(-1));
   vmask<A> occluded = simd::no_lanes<A>(), live = active;
@@ -351,9 +352,9 @@ inline vmask<A> march_occluded(TreeView const& tree, TetMesh const& mesh, TetNei
   while (true) {
     vmask<A> const has = live && m.has_cell();
     if (simd::none(has)) break;
-    typename TetMarch<A>::Step const st = m.step(has, false);
+    typename CellMarch<A, N>::Step const st = m.step(has, false);
     vmask<A> const nan = has_nan_value(st.c);
-    CellIsoHit<A> const h = iso_in_clip<A, 4>(ray, st.k, st.c, r.tmin, r.tmax, isos.values, isos.count, method);
+    CellIsoHit<A> const h = iso_in_clip<A, N>(ray, st.k, st.c, r.tmin, r.tmax, isos.values, isos.count, method);
     vmask<A> const found = h.hit && has && !nan;
     occluded = occluded || found;
     live = live && !found && m.t < r.tmax;
