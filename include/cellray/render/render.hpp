@@ -46,7 +46,8 @@ template <int N> struct ScenePart {
   /// link_face_neighbours, where only DVR marches). Faster where cells are
   /// small against a packet's footprint (1M hexes at 1024x1024, 1 thread:
   /// DVR 1.4-1.8x the rays per second); coarse meshes do as well through
-X
+  /// the tree (boxturb48's 110k: DVR 0.9-1.1x; AO rays 1.02x, the flange's
+  /// 1.03x).
   HexNeighbours const* neighbours = nullptr;
 };
 
