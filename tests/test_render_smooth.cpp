@@ -238,6 +238,44 @@ TEST_CASE("smooth normals follow a sphere more closely than flat ones -- colour 
   check_smooth(generate_hexes(10 * 10 * 10, 2, 0.15f), "hexes", 12.0);
 }
 
+TEST_CASE("tets folded into hexahedra shade as the tets: smooth normals and colour by at the hit's coordinates",
+          "[render][smooth][isa]") {
+  // A packet hands a folded tet (0 1 2 2 3 3 3 3) to the tet kernels, which
+  // keep no cell coordinates: the hit's trilinear ones come from its
+  // barycentric ones (CellOps<A, 8>::folded_tet_param), and the smooth
+  // normal and the colour interpolate with the trilinear weights there,
+  // which must be the barycentric weights again. Same vertex gradients and
+  // arrays in both scenes; a wrong mapping shows as other shades and colours.
+  auto const g = generate_tets(6 * 10 * 10 * 10, 2);
+  std::vector<float> const f = field_of(g, [](glm::vec3 p) { return glm::dot(p, p); });
+  std::vector<float> const colour = field_of(g, [](glm::vec3 p) { return p.x + 0.5f * p.y; });
+  std::vector<uint32_t> folded;
+  for (size_t c = 0; c < g.cells.size() / 4; ++c)
+    for (int k : tet_as_hex) folded.push_back(g.cells[4 * c + size_t(k)]);
+  TetMesh tets{view(g.xyz), view(g.cells), view(f), "f"};
+  HexMesh hexes{view(g.xyz), view(folded), view(f), "f"};
+  tets.add_array("colour", view(colour));
+  hexes.add_array("colour", view(colour));
+  MinMaxBvh const tb = build_minmax_bvh(tets), hb = build_minmax_bvh(hexes);
+  VertexGradients const vg = build_vertex_gradients(tets);
+  Scene as_tets(tets, tb), as_hexes(hexes, hb);
+  as_tets.tets[0].gradients = &vg;
+  as_hexes.hexes[0].gradients = &vg;
+  int const size = test::full_or_sanitized(96, 48);
+  Camera const cam = Camera::look_at({0.f, 0.3f, 3.2f}, {0.f, 0.f, 0.f}, {0.f, 1.f, 0.f}, 30.f, size, size);
+  IsoParams ip;
+  ip.surfaces = {{0.2f, {1.f, 1.f, 1.f}, 0.5f}, {0.5f, {1.f, 1.f, 1.f}, 1.f}};
+  ip.normals = GradientMethod::smooth;
+  ip.color_by.array = "colour";
+  ip.color_by.colors = transfer_function_preset("viridis", -1.f, 1.f);
+  RenderOptions const ro = test::isa_options();
+  ImageDiff const d = compare_images(render_iso(as_hexes, cam, ip, ro), render_iso(as_tets, cam, ip, ro), 1.0);
+  report("folded tets vs tets, smooth normals and colour by", d);
+  INFO("on " << isa_name(test::isa()));
+  CHECK(d.nonfinite == 0);
+  CHECK(d.frac_over == 0.0);  // weights equal to rounding: no channel off by more than 1/255
+}
+
 TEST_CASE("smooth normals need vertex gradients -- colouring needs the array", "[render][smooth]") {
   auto const g = generate_tets(6 * 3 * 3 * 3, 1);
   TetMesh const mesh = g.mesh();

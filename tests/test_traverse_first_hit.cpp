@@ -6,7 +6,9 @@
 
 #include <cellray/bvh/build.hpp>
 #include <cellray/mesh/generate.hpp>
+#include <cellray/mesh/vtk_cells.hpp>
 #include <cellray/render/camera.hpp>
+#include <cellray/traverse/occlusion_query.hpp>
 #include <cellray/traverse/queries.hpp>
 
 #include "support/brute_force.hpp"
@@ -114,6 +116,60 @@ TEST_CASE("first hit: an empty tree finds nothing, and a [tmin, tmax] window is 
     }
   }
   CHECK(continued > 0);
+}
+
+TEST_CASE("first hit: tets stored as hexahedra (folded) hit as the tets do, through the tet kernels",
+          "[traverse][isa]") {
+  // Every tet as the hexahedron 0 1 2 2 3 3 3 3 (fold_tets_into_hexes):
+  // the same boxes give the same tree, so packets meet the same cells in the
+  // same order; a packet leaf hands a folded tet to the tet kernels
+  // (CellOps<A, 8>::is_folded_tet), so the hits are the tets' bit for bit:
+  // t, cell, isovalue and the (constant) gradient's normal. The trilinear
+  // root search on the same cell agrees only to its tolerance.
+  auto g = generate_tets(6 * 9 * 9 * 9, 7);
+  TetMesh const tets = g.mesh();
+  std::vector<uint32_t> folded;
+  for (size_t c = 0; c + 4 <= g.cells.size(); c += 4)
+    for (int k : tet_as_hex) folded.push_back(g.cells[c + size_t(k)]);
+  HexMesh const hexes{view(g.xyz), view(folded), view(g.field)};
+  MinMaxBvh const tb = build_minmax_bvh(tets), hb = build_minmax_bvh(hexes);
+  REQUIRE(tb.node_count() == hb.node_count());
+  IsoQuery q;
+  q.isos.count = 2;
+  q.isos.values[0] = 0.3f, q.isos.values[1] = 0.5f;
+  auto rays = camera_rays(24, 18, {2.2f, 1.4f, 3.1f});
+  auto incoherent = random_rays(300, 5);
+  rays.insert(rays.end(), incoherent.begin(), incoherent.end());
+  INFO("on " << isa_name(test::isa()));
+  std::vector<SurfaceHit> const a = first_hits(TreeView(tb), tets, rays, q, test::isa());
+  std::vector<SurfaceHit> const b = first_hits(TreeView(hb), hexes, rays, q, test::isa());
+  int hits = 0, differ = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    hits += a[i].hit();
+    differ += a[i].t != b[i].t || a[i].cell != b[i].cell || a[i].iso != b[i].iso || a[i].normal != b[i].normal;
+  }
+  CHECK(hits > 100);
+  CHECK(differ == 0);
+  // Shadow rays (the packet occlusion query) from points on the surface.
+  std::vector<Ray> shadow;
+  for (size_t i = 0; i < rays.size(); ++i)
+    if (a[i].hit()) shadow.push_back({rays[i].org + a[i].t * rays[i].dir, 1e-4f, glm::vec3(0.3f, 0.8f, 0.5f), 1e30f});
+  std::vector<uint8_t> const sa = occluded_rays(TreeView(tb), tets, shadow, q, false, test::isa());
+  std::vector<uint8_t> const sb = occluded_rays(TreeView(hb), hexes, shadow, q, false, test::isa());
+  CHECK(sa == sb);
+  int occluded = 0;
+  for (uint8_t x : sa) occluded += x;
+  CHECK(occluded > int(shadow.size()) / 10);
+  // SPMD leaves keep the hexahedron kernels for folded tets: the same hits
+  // to their tolerance.
+  q.traversal = Traversal::spmd;
+  std::vector<SurfaceHit> const c = first_hits(TreeView(hb), hexes, rays, q, test::isa());
+  int far = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    CHECK(a[i].hit() == c[i].hit());
+    if (a[i].hit() && c[i].hit()) far += std::abs(a[i].t - c[i].t) > 1e-5f * std::max(1.f, a[i].t);
+  }
+  CHECK(far == 0);
 }
 
 }  // namespace test_traverse_first_hit

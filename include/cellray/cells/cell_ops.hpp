@@ -24,6 +24,9 @@
 //   keeps_param               hits and located points keep cell coordinates
 //   march_reuses_corners      a march's next cell shares a face's corners
 //   occlusion_in_pairs        grouped occlusion clips (cell, ray) pairs
+//   holds_folded_tets         some cells may be tets stored as this type; then also
+//                             is_folded_tet(keys), broadcast_folded_tet(xyz, k) -> FoldedTet,
+//                             folded_tet_param(folded, p)
 // A new type adds its file here, its corner count to mesh/cell_types.hpp's
 // CellTypes, its FaceNeighbours faces (mesh/neighbours.hpp), its double
 // reference (cells/reference.hpp: load, clip, locate, FieldOnRay<N>), and,

@@ -734,6 +734,31 @@ template <class A> inline HexClip<A> clip_hex(RayBatch<A> const& ray, CellCorner
   return clip_hex_window(ray, c, simd::all_lanes<A>(), vfloat<A>(-inf), vfloat<A>(inf));
 }
 
+namespace isa_detail {
+/// Trilinear coordinates of `p` in a tetrahedron stored as a hexahedron (0 1
+/// 2 2 3 3 3 3, fold_tets_into_hexes) whose corners 0, 1, 2 and 4 are at
+/// `p0`, `p1`, `p2`, `p4`: barycentric weights l1, l2, l3 of corners 1, 2 and
+/// 4 (Cramer), and the trilinear coordinates they are: w = l3,
+/// v = l2 / (1 - w), u = l1 / (l0 + l1) (any u, v where the map collapses).
+/// `solid`: the tet has volume; `in`: p is inside it (within
+/// hex_inside_tolerance).
+template <class A>
+inline Vec3<A> folded_tet_param(Vec3<A> const& p0, Vec3<A> const& p1, Vec3<A> const& p2, Vec3<A> const& p4,
+                                Vec3<A> const& p, vmask<A>& solid, vmask<A>& in) {
+  vfloat<A> const zero(0.f), one(1.f), half(0.5f), tol(hex_inside_tolerance);
+  Vec3<A> const e1 = p1 - p0, e2 = p2 - p0, e3 = p4 - p0, d = p - p0;
+  Vec3<A> const n23 = cross(e2, e3);
+  vfloat<A> const det = dot(e1, n23);
+  solid = !(det == zero);
+  vfloat<A> const inv = one / simd::select(solid, det, one);
+  vfloat<A> const l1 = dot(d, n23) * inv, l2 = dot(e1, cross(d, e3)) * inv, l3 = dot(e1, cross(e2, d)) * inv;
+  vfloat<A> const l0 = one - l1 - l2 - l3, below = l0 + l1, one_w = one - l3;
+  in = solid && l0 >= zero - tol && l1 >= zero - tol && l2 >= zero - tol && l3 >= zero - tol;
+  return {simd::select(below > zero, l1 / simd::select(below > zero, below, one), half),
+          simd::select(one_w > zero, l2 / simd::select(one_w > zero, one_w, one), half), l3};
+}
+}  // namespace isa_detail
+
 /// Point containment and trilinear interpolation by Newton inversion of the
 /// trilinear map: start at the cell centre (u = v = w = 1/2: the first step
 /// is the inverse of the centre's affine approximation), at most
@@ -788,20 +813,8 @@ inline Located<A> locate_hex(PointBatch<A> const& pts, CellCorners<A, 8> const& 
     r.inside = (wedge && in) || (!wedge && r.inside);
   }
   if (CELLRAY_UNLIKELY(simd::any(tet))) {
-    // Barycentric weights l1, l2, l3 of corners 1, 2 and 4 (Cramer), and the
-    // trilinear coordinates they are: w = l3, v = l2 / (1 - w),
-    // u = l1 / (l0 + l1) (any u, v where the map collapses).
-    vfloat<A> const zero(0.f), one(1.f), half(0.5f), tol(hex_inside_tolerance);
-    Vec3<A> const p0 = c.p(0), e1 = c.p(1) - p0, e2 = c.p(2) - p0, e3 = c.p(4) - p0, d = pts.p() - p0;
-    Vec3<A> const n23 = cross(e2, e3);
-    vfloat<A> const det = dot(e1, n23);
-    vmask<A> const solid = !(det == zero);
-    vfloat<A> const inv = one / simd::select(solid, det, one);
-    vfloat<A> const l1 = dot(d, n23) * inv, l2 = dot(e1, cross(d, e3)) * inv, l3 = dot(e1, cross(e2, d)) * inv;
-    vfloat<A> const l0 = one - l1 - l2 - l3, below = l0 + l1, one_w = one - l3;
-    Vec3<A> const param{simd::select(below > zero, l1 / simd::select(below > zero, below, one), half),
-                        simd::select(one_w > zero, l2 / simd::select(one_w > zero, one_w, one), half), l3};
-    vmask<A> const in = solid && l0 >= zero - tol && l1 >= zero - tol && l2 >= zero - tol && l3 >= zero - tol;
+    vmask<A> solid, in;
+    Vec3<A> const param = isa_detail::folded_tet_param(c.p(0), c.p(1), c.p(2), c.p(4), pts.p(), solid, in);
     r.param = select<A>(tet, param, r.param);
     r.converged = r.converged || (tet && solid);
     r.inside = (tet && in) || (!tet && r.inside);
@@ -1030,6 +1043,14 @@ inline CellIsoHit<A> iso_root_hex_neubauer(HexClip<A> const& clip, CellCorners<A
       [&](vfloat<A> const& lam, vmask<A> const&) { return isa_detail::trilerp<A>(c.s, clip.u_in + lam * du); });
 }
 
+/// A tetrahedron stored as a hexahedron (CellOps<A, 8>::is_folded_tet), as a
+/// packet leaf hands it on: its corners in the tet kernels' order, and
+/// which corner of the hexahedron (0, 1, 2 or 4) each is.
+template <class A> struct FoldedTet {
+  CellCorners<A, 4> tet;
+  int hex_corner[4];
+};
+
 /// What the traversals call for hexahedra, and wedges and pyramids as
 /// hexahedra with repeated corners (cells/cell_ops.hpp).
 template <class A> struct CellOps<A, 8> {
@@ -1046,6 +1067,45 @@ template <class A> struct CellOps<A, 8> {
   }
   static constexpr bool march_reuses_corners = false;
   static constexpr bool occlusion_in_pairs = false;
+
+  /// Tetrahedra stored as hexahedra (0 1 2 2 3 3 3 3, fold_tets_into_hexes:
+  /// a mixed mesh under one BVH) take the tet kernels where a packet leaf
+  /// meets one (for_each_leaf_cell: FoldedTet): the same surface, at a
+  /// tet's cost instead of a trilinear root search over 8 corners.
+  static constexpr bool holds_folded_tets = true;
+  /// Whether corner keys `key` (mesh order) are such a tetrahedron's, with
+  /// four distinct corners. Keys that are ranks (meshes over 2^31
+  /// vertices) never match: the hex kernels then take it, as they take any
+  /// collapsed cell.
+  static bool is_folded_tet(int32_t const (&k)[8]) {
+    return k[2] == k[3] && k[4] == k[5] && k[5] == k[6] && k[6] == k[7] && k[0] != k[1] && k[0] != k[2] &&
+           k[0] != k[4] && k[1] != k[2] && k[1] != k[4] && k[2] != k[4];
+  }
+  /// The tetrahedron of an is_folded_tet cell `k` in every lane.
+  static FoldedTet<A> broadcast_folded_tet(float const* xyz, ScalarCorners<8> const& k) {
+    FoldedTet<A> f;
+    int* o = f.hex_corner;
+    o[0] = 0, o[1] = 1, o[2] = 2, o[3] = 4;
+    auto swap_if = [&](int i, int j) {
+      if (k.key[o[i]] > k.key[o[j]]) std::swap(o[i], o[j]);
+    };
+    swap_if(0, 1), swap_if(2, 3), swap_if(0, 2), swap_if(1, 3), swap_if(1, 2);  // order_corners<4>'s network
+    for (int i = 0; i < 4; ++i) {
+      float const* q = xyz + 3 * k.v[o[i]];
+      f.tet.x[i] = vfloat<A>(q[0]), f.tet.y[i] = vfloat<A>(q[1]), f.tet.z[i] = vfloat<A>(q[2]);
+      f.tet.s[i] = vfloat<A>(k.s[o[i]]);
+      f.tet.id[i] = vint<A>(k.key[o[i]]);
+    }
+    return f;
+  }
+  /// Trilinear coordinates (this type's) of points `p` in a FoldedTet.
+  static Vec3<A> folded_tet_param(FoldedTet<A> const& f, Vec3<A> const& p) {
+    Vec3<A> at[5];  // at[j]: hexahedron corner j (0, 1, 2, 4)
+    for (int i = 0; i < 4; ++i) at[f.hex_corner[i]] = f.tet.p(i);
+    vmask<A> solid, in;
+    return isa_detail::folded_tet_param(at[0], at[1], at[2], at[4], p, solid, in);
+  }
+
   /// `param`, if given, receives the trilinear coordinates of the hit in
   /// hit lanes (iso_root_hex's; for Neubauer one inversion at the root).
   /// `t_from`: the exact method's search start (see iso_root_hex);

@@ -383,6 +383,8 @@ template <class A> struct CellOps<A, 4> {
   static constexpr bool linear_on_ray = true;
   /// A hit or located point has no cell coordinates worth keeping.
   static constexpr bool keeps_param = false;
+  /// Another type's cells that are tets in disguise (see CellOps<A, 8>): none.
+  static constexpr bool holds_folded_tets = false;
   static Clip clip(RayBatch<A> const& r, CellCorners<A, 4> const& c) { return clip_tet(r, c); }
   /// The clip narrowed to [t_lo, t_hi]; `exit_face`, if given, receives the
   /// face (mesh face order, FaceNeighbours') the ray leaves through.

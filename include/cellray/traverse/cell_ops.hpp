@@ -5,6 +5,7 @@
 // window. Written once for every type; they ask CellOps about properties.
 
 #include <limits>
+#include <type_traits>
 
 #include "../cells/hex.hpp"
 #include "../cells/queries.hpp"
@@ -46,7 +47,10 @@ CELLRAY_FORCE_INLINE vmask<A> cell_box_hit(RayPacket<A> const& r, CellCorners<A,
 /// t_hi()] for the lanes `m` (t_hi re-read per cell: a query's interval
 /// shrinks as it finds cells); only then are the corners ordered and
 /// broadcast for `visit(corners, lanes in the box, item slot, cell id)`.
-/// A packet misses most cells of a leaf it reaches.
+/// A packet misses most cells of a leaf it reaches. A visitor that also
+/// takes a FoldedTet gets the type's tets in disguise that way
+/// (CellOps::holds_folded_tets): 4 corners broadcast instead of 8, for
+/// the tet kernels.
 template <class A, int N, class Keep, class THi, class Visit>
 CELLRAY_FORCE_INLINE void for_each_leaf_cell(TreeView const& tree, CellMesh<N> const& mesh, RayPacket<A> const& r,
                                              uint64_t first, uint32_t n, vmask<A> const& m, vfloat<A> const& t_lo,
@@ -63,6 +67,13 @@ CELLRAY_FORCE_INLINE void for_each_leaf_cell(TreeView const& tree, CellMesh<N> c
     vmask<A> const in_box = m && box_hit(r, lo, hi, t_lo, t_hi(), tn);
     if (simd::none(in_box)) continue;
     order_corners(mesh.vertex_count(), k);
+    if constexpr (std::conjunction_v<std::bool_constant<CellOps<A, N>::holds_folded_tets>,
+                                     std::is_invocable<Visit&, FoldedTet<A> const&, vmask<A> const&, uint64_t, uint64_t>>) {
+      if (CellOps<A, N>::is_folded_tet(k.key)) {
+        visit(CellOps<A, N>::broadcast_folded_tet(xyz, k), in_box, i, cell);
+        continue;
+      }
+    }
     visit(broadcast<A, N>(mesh, k), in_box, i, cell);
   }
 }

@@ -5,6 +5,7 @@
 // traversal (§6.1). ISA units only.
 
 #include <cstdint>
+#include <type_traits>
 
 #include "cell_ops.hpp"
 #include "packet.hpp"
@@ -92,8 +93,11 @@ template <class A, int N> struct FirstHitQuery {
     for_each_leaf_cell<A, N>(
         tree, mesh, r, first, count, m, r.tmin, [this](float vmin, float vmax) { return isos.overlaps(vmin, vmax); },
         [this] { return hit.t; },
-        [this, &m](CellCorners<A, N> const& c, vmask<A> const&, uint64_t slot, uint64_t) {
-          cell_hits(c, m, vint<A>(int32_t(slot)));
+        [this, &m](auto const& c, vmask<A> const&, uint64_t slot, uint64_t) -> void {
+          if constexpr (std::is_same_v<std::decay_t<decltype(c)>, FoldedTet<A>>)
+            folded_tet_hits(c, m, vint<A>(int32_t(slot)));
+          else
+            cell_hits(c, m, vint<A>(int32_t(slot)));
         });
   }
 
@@ -119,6 +123,19 @@ template <class A, int N> struct FirstHitQuery {
     update(h.hit, h.t, h.iso_index, slots);
     if (Ops::keeps_param && want_param) param = select<A>(h.hit, u, param);
     if (want_gradient) grad = select<A>(h.hit, Ops::gradient_at(c, u), grad);
+  }
+
+  /// cell_hits for a tetrahedron stored as this type (for_each_leaf_cell's
+  /// FoldedTet), with the tet kernels: its field is linear, so its roots
+  /// need no search. The hit keeps this type's coordinates
+  /// (folded_tet_param) and the tet's constant gradient.
+  void folded_tet_hits(FoldedTet<A> const& f, vmask<A> const& m, vint<A> const& slots) {
+    RayBatch<A> const ray = ray_batch(r);
+    CellIsoHit<A> const h = iso_in_window(ray, f.tet, m, r.tmin, hit.t, isos.values, isos.count, method);
+    if (simd::none(h.hit)) return;
+    update(h.hit, h.t, h.iso_index, slots);
+    if (want_param) param = select<A>(h.hit, CellOps<A, N>::folded_tet_param(f, ray.origin() + h.t * ray.dir()), param);
+    if (want_gradient) grad = select<A>(h.hit, CellOps<A, 4>::gradient_at(f.tet, Vec3<A>{}), grad);
   }
 };
 

@@ -77,6 +77,15 @@ template <class A, int N> struct OcclusionQuery {
       vmask<A> const lanes = live && box_hit(r, lo, hi, r.tmin, t_hi_, tn);
       if (simd::none(lanes)) continue;
       order_corners(mesh.vertex_count(), k);
+      if constexpr (CellOps<A, N>::holds_folded_tets) {
+        if (CellOps<A, N>::is_folded_tet(k.key)) {  // the tet kernels, as FirstHitQuery takes it
+          FoldedTet<A> const f = CellOps<A, N>::broadcast_folded_tet(mesh.positions(), k);
+          CellIsoHit<A> const h =
+              iso_in_window(ray_batch(r), f.tet, lanes, r.tmin, t_hi_, isos.values, isos.count, method);
+          if (simd::any(h.hit && lanes)) mark(h.hit && lanes);
+          continue;
+        }
+      }
       CellCorners<A, N> const c = broadcast<A, N>(mesh, k);
       CellIsoHit<A> const h = iso_in_window(ray_batch(r), c, lanes, r.tmin, t_hi_, isos.values, isos.count, method);
       if (simd::any(h.hit && lanes)) mark(h.hit && lanes);
