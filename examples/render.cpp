@@ -432,7 +432,7 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--secondary", o.secondary,
                  "Shadow/AO ray query: nearest hit, any hit (occlusion), any hit with AO rays sorted by direction, "
                  "sorted and 4 packets per traversal (grouped), or AO rays marching from their hit cells through face "
-                 "neighbours (march: tet meshes; same image)")
+                 "neighbours (march: tet meshes and mixed meshes kept as two parts; same image)")
       ->check(CLI::IsMember({"nearest", "occlusion", "sorted", "grouped", "march"}))
       ->capture_default_str();
   app.add_option("--threads", o.threads, "Worker threads (default: all cores)")->check(CLI::Range(1, 4096));
@@ -969,23 +969,23 @@ int run(Options const& o) {
   // Cell-segment DVR of a tet or a hex mesh (wedges and pyramids included)
   // marches through face neighbours; so does a mixed mesh kept as two
   // parts, across both (link_face_neighbours), and the AO rays of a tet
-  // mesh. A hex mesh's AO rays could march too (the library does it when
-  // given neighbours), but gain 2-4% of a frame (boxturb48, the flange,
-  // 1 thread) where their neighbours cost more (the flange: 40-90 ms).
+  // mesh or of a mixed mesh's two parts. A hex mesh's AO rays could march
+  // too (the library does it when given neighbours), but gain 2-4% of a
+  // frame (boxturb48, the flange, 1 thread) where their neighbours cost
+  // more (the flange: 40-90 ms).
   TetNeighbours neighbours;
   HexNeighbours hex_neighbours;
   double neighbours_ms = 0;
-  bool const one_part = l.tets.empty() != l.hexes.empty();
   bool const march_dvr = o.mode == "dvr" && o.dvr_mode == "segments" && !o.no_march && !o.reference;
-  bool const march = (march_dvr || (o.mode == "iso" && o.ao > 0 && o.secondary == "march" && !o.reference && one_part)) &&
-                     !l.tets.empty();
+  bool const march_ao = o.mode == "iso" && o.ao > 0 && o.secondary == "march" && !o.reference && !l.tets.empty();
+  bool const march = (march_dvr || march_ao) && !l.tets.empty();
   // Hexes march too: their neighbours build at 10-20 M cells/s on 2
   // threads (issue #23), less than one frame gains. Fresh processes,
   // 1024x768, 2 threads, total time through the tree / marching:
   // boxturb48 1.38x, the snappy flange 1.69x, 1M generated hexes 1.50x;
   // can.vtu's 4.8k shell hexes 0.83-0.88x, the only loss seen
   // (docs/cli.md). --march is kept, a no-op.
-  bool const hex_march = march_dvr && !l.hexes.empty();
+  bool const hex_march = (march_dvr || march_ao) && !l.hexes.empty();
   if (march && hex_march) {
     Phase ph(progress, "finding face neighbours of " + std::to_string(l.tets.cell_count()) + " tets and " +
                            std::to_string(l.hexes.cell_count()) + " hexahedra");

@@ -3,16 +3,19 @@
 // surfaces, semi-transparent ones of one opacity, and of several opacities,
 // where shadows keep the nearest hit's opacity), on tets, hexes and a
 // two-part scene, tets and hexes with face neighbours (AO rays march) with
-// and without holes; and the default matches the double-precision
-// reference renderer with shadows and AO.
+// and without holes, and a mixed mesh's two parts with linked neighbours
+// (AO rays march across both); and the default matches the
+// double-precision reference renderer with shadows and AO.
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
 
+#include <cellray/io/read_mesh.hpp>
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/neighbours.hpp>
 
@@ -120,6 +123,33 @@ TEST_CASE("shadow and AO queries: occlusion, sorted, grouped and march render th
   Scene both = lt->scene();  // two overlapping parts: a ray occluded by the first skips the second
   both.hexes.push_back({lh->mesh, &lh->bvh, nullptr});
   check_queries_agree("tets + hexes", both, frame);
+}
+
+TEST_CASE("shadow and AO queries on a mixed mesh's two linked parts: AO rays march across both, the same image",
+          "[render][isa]") {
+  // gmsh's hex block glued to a tet block, pyramids between
+  // (tests/data/gmsh/mixed22.msh), a curved field.
+  UnstructuredGrid g = read_mesh(std::string(CELLRAY_TEST_DATA) + "/gmsh/mixed22.msh");
+  REQUIRE(g.tet_count() > 0);
+  REQUIRE(g.hex_count() > 0);
+  std::vector<float> field(g.vertex_count());
+  for (uint64_t v = 0; v < g.vertex_count(); ++v) {
+    float const* q = &g.xyz[3 * v];
+    field[v] = std::sin(3.f * q[0]) + q[1] * q[1] + 0.5f * q[2];
+  }
+  // lit_params' isovalues lie in [0.25, 0.6]: map the field onto [0, 1].
+  float const lo = *std::min_element(field.begin(), field.end()), hi = *std::max_element(field.begin(), field.end());
+  for (float& f : field) f = (f - lo) / (hi - lo);
+  TetMesh const tm = g.tet_mesh().with_values(view(field));
+  HexMesh const hm = g.hex_mesh().with_values(view(field));
+  MinMaxBvh const tb = build_minmax_bvh(tm), hb = build_minmax_bvh(hm);
+  TetNeighbours tn = build_tet_neighbours(tm);
+  HexNeighbours hn = build_hex_neighbours(hm);
+  link_face_neighbours(tm, tn, hm, hn);
+  Scene linked;
+  linked.tets.push_back({tm, &tb, nullptr, &tn});
+  linked.hexes.push_back({hm, &hb, nullptr, nullptr, &hn});
+  check_queries_agree("mixed22, two linked parts", linked, frame);
 }
 
 TEST_CASE("fast vs reference: shadows and ambient occlusion with the default secondary query", "[render][reference][isa]") {

@@ -210,10 +210,11 @@ void run(Bytes& in, uint8_t flags, uint8_t tuning, uint64_t nv, uint64_t nc, flo
     mixed.hexes.push_back({mesh, &bvh, nullptr, nullptr, &hn});
     dp.mode = cellray::DvrMode::segments;
     check_image(cellray::render_dvr(mixed, cam, dp, ro), w, h);
+    ip.ao_samples = 2;  // AO rays march across the linked parts
+    check_image(cellray::render_iso(mixed, cam, ip, ro), w, h);
     // The hexahedra alone with their own (unlinked) neighbours: AO rays
     // march through them.
     cellray::HexNeighbours const own = cellray::build_hex_neighbours(mesh);
-    ip.ao_samples = 2;
     check_image(cellray::render_iso(cellray::Scene(mesh, bvh, nullptr, &own), cam, ip, ro), w, h);
   }
 }

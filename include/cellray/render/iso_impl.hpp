@@ -266,8 +266,10 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
   // Any-hit shadow rays need one opacity for every surface (see the shadow block).
   bool const secondary = p.shadows || p.ao_samples > 0;
   // AO rays march from their hit cells where the scene allows (one part,
-  // with face neighbours); elsewhere `march` is `grouped`.
-  bool const march_ao = o.secondary_query == SecondaryQuery::march && s.parts.size() == 1 && s.parts[0].marches();
+  // with face neighbours, or a mixed mesh's two parts, linked, as DVR
+  // marches them); elsewhere `march` is `grouped`.
+  bool const march_ao = o.secondary_query == SecondaryQuery::march &&
+                        ((s.parts.size() == 1 && s.parts[0].marches()) || s.mixed_march);
   bool one_opacity = true;
   for (IsoSurface const& surf : p.surfaces) one_opacity = one_opacity && surf.opacity == p.surfaces[0].opacity;
   vfloat<A> const zero(0.f), one(1.f);
@@ -466,7 +468,13 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           constexpr int chunk = std::min(4, max_sorted_rays / W);
           PreparedPart const& part = s.parts[0];
           vmask<A> const lanes = simd::mask_from_bits<A>(hit_bits);
-          vint<A> const hit_cells = slot_cells<A>(part.tree, h.item, lanes);  // h.item: item-list slots
+          // h.item: item-list slots of the hit's part (a mixed march: the
+          // tets, part 0, or the hexahedra, part 1)
+          vmask<A> const in_second = lanes && simd::to_float_mask(h.part == vint<A>(1));
+          vint<A> hit_cells = slot_cells<A>(part.tree, h.item, lanes && !in_second);
+          if (s.mixed_march && simd::any(in_second))
+            hit_cells = simd::select(simd::to_int_mask(in_second), slot_cells<A>(s.parts[1].tree, h.item, in_second),
+                                     hit_cells);
           Ray rest[W * chunk];
           uint8_t owner[W * chunk];
           uint64_t occ_rest[(W * chunk + 63) / 64];
@@ -479,11 +487,20 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
               RayPacket<A> const arp = load_rays<A>(ar, W);
               vmask<A> undecided;
               vfloat<A> t_done;
-              uint32_t const occ = simd::movemask(part.visit([&](auto const& mesh, auto const* neighbours) {
-                                     return march_occluded<A>(part.tree, mesh, *neighbours, arp, lanes, hit_cells,
-                                                              isos, p.roots, undecided, t_done);
-                                   })) &
-                                   hit_bits;
+              vmask<A> occ_lanes;
+              if (s.mixed_march) {
+                PartCells<4> const& t = *s.parts[0].cells_of<4>();  // prepare() checked both
+                PartCells<8> const& hx = *s.parts[1].cells_of<8>();
+                occ_lanes = march_occluded<A>(s.parts[0].tree, *t.mesh, *t.neighbours, s.parts[1].tree, *hx.mesh,
+                                              *hx.neighbours, arp, lanes, hit_cells, in_second, isos, p.roots,
+                                              undecided, t_done);
+              } else {
+                occ_lanes = part.visit([&](auto const& mesh, auto const* neighbours) {
+                  return march_occluded<A>(part.tree, mesh, *neighbours, arp, lanes, hit_cells, isos, p.roots,
+                                           undecided, t_done);
+                });
+              }
+              uint32_t const occ = simd::movemask(occ_lanes) & hit_bits;
               for (int l = 0; l < W; ++l)
                 if (occ >> l & 1u) occlusion[l] += 1.f / float(p.ao_samples);
               auto const from = simd::to_array<A>(t_done);

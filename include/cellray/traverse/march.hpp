@@ -364,5 +364,44 @@ inline vmask<A> march_occluded(TreeView const& tree, CellMesh<N> const& mesh, Fa
   return occluded;
 }
 
+/// march_occluded across a mixed mesh's two linked parts (MixedMarch): lanes
+/// start in `start`, a hexahedron where `in_hex`, else a tet, and cross
+/// between the parts where their neighbours are linked.
+template <class A>
+inline vmask<A> march_occluded(TreeView const& tet_tree, TetMesh const& tm, TetNeighbours const& tn,
+                               TreeView const& hex_tree, HexMesh const& hm, HexNeighbours const& hn,
+                               RayPacket<A> const& r, vmask<A> const& active, vint<A> const& start,
+                               vmask<A> const& in_hex, IsoSet const& isos, CellIsoOptions const& method,
+                               vmask<A>& undecided, vfloat<A>& t_done) {
+  ValueWindows const all;
+  MixedMarch<A> m(tet_tree, tm, tn, hex_tree, hm, hn, r, all, r.tmin, r.tmax);
+  m.tets.max_faint = m.hexes.max_faint = std::numeric_limits<int32_t>::max() - 1;  // every cell is tested
+  m.tets.cell = simd::select(simd::to_int_mask(active && !in_hex), start, vint<A>(-1));
+  m.hexes.cell = simd::select(simd::to_int_mask(active && in_hex), start, vint<A>(-1));
+  vmask<A> occluded = simd::no_lanes<A>(), live = active;
+  RayBatch<A> const ray = ray_batch(r);
+  while (true) {
+    vmask<A> const has = live && m.has_cell();
+    if (simd::none(has)) break;
+    typename MixedMarch<A>::Step const st = m.step(has, false);
+    vmask<A> found = simd::no_lanes<A>();
+    if (simd::any(st.in_tet)) {
+      CellIsoHit<A> const h =
+          iso_in_clip<A, 4>(ray, st.tet.k, st.tet.c, r.tmin, r.tmax, isos.values, isos.count, method);
+      found = found || (h.hit && st.in_tet && !has_nan_value(st.tet.c));
+    }
+    if (simd::any(st.in_hex)) {
+      CellIsoHit<A> const h =
+          iso_in_clip<A, 8>(ray, st.hex.k, st.hex.c, r.tmin, r.tmax, isos.values, isos.count, method);
+      found = found || (h.hit && st.in_hex && !has_nan_value(st.hex.c));
+    }
+    occluded = occluded || found;
+    live = live && !found && m.t < r.tmax;
+  }
+  undecided = live;
+  t_done = m.t;
+  return occluded;
+}
+
 }  // namespace CELLRAY_ISA_NS
 }  // namespace cellray
