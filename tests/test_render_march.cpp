@@ -168,11 +168,7 @@ TEST_CASE("a mixed mesh with its tets folded into the hexahedra renders as its t
   UnstructuredGrid g = read_mesh(std::string(CELLRAY_TEST_DATA) + "/gmsh/mixed22.msh");
   REQUIRE(g.tet_count() > 0);
   REQUIRE(g.hex_count() > 0);
-  std::vector<float> field(g.vertex_count());
-  for (uint64_t v = 0; v < g.vertex_count(); ++v) {
-    float const* q = &g.xyz[3 * v];
-    field[v] = std::sin(3.f * q[0]) + q[1] * q[1] + 0.5f * q[2];
-  }
+  std::vector<float> const field = test::curved_field(g.xyz);
   UnstructuredGrid f = g;
   uint64_t const tets = f.fold_tets_into_hexes();
   CHECK(tets == g.tet_count());
@@ -231,11 +227,7 @@ TEST_CASE("DVR march: a mixed mesh kept as two parts marches across both when th
   // of hexahedra and prisms under tets, pyramids between, a hole.
   for (char const* file : {"mixed22.msh", "sphere_bl_small.msh"}) {
     UnstructuredGrid g = read_mesh(std::string(CELLRAY_TEST_DATA) + "/gmsh/" + file);
-    std::vector<float> field(g.vertex_count());
-    for (uint64_t v = 0; v < g.vertex_count(); ++v) {
-      float const* q = &g.xyz[3 * v];
-      field[v] = std::sin(3.f * q[0]) + q[1] * q[1] + 0.5f * q[2];
-    }
+    std::vector<float> field = test::curved_field(g.xyz);
     TetMesh const tm = g.tet_mesh().with_values(view(field));
     HexMesh const hm = g.hex_mesh().with_values(view(field));
     MinMaxBvh tb = build_minmax_bvh(tm), hb = build_minmax_bvh(hm);

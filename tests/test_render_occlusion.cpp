@@ -87,7 +87,10 @@ template <int N> std::vector<uint32_t> with_holes(GeneratedMesh<N> const& g) {
   std::vector<uint32_t> out;
   for (size_t c = 0; c + N <= g.cells.size(); c += N) {
     glm::vec3 m(0.f);
-    for (int i = 0; i < N; ++i) m += glm::vec3(g.xyz[3 * g.cells[c + i]], g.xyz[3 * g.cells[c + i] + 1], g.xyz[3 * g.cells[c + i] + 2]);
+    for (int i = 0; i < N; ++i) {
+      float const* q = &g.xyz[3 * g.cells[c + size_t(i)]];
+      m += glm::vec3(q[0], q[1], q[2]);
+    }
     m *= 1.f / float(N);
     if (std::abs(m.x) > 0.15f && std::abs(m.y - 0.3f) > 0.1f) out.insert(out.end(), &g.cells[c], &g.cells[c] + N);
   }
@@ -119,7 +122,8 @@ TEST_CASE("shadow and AO queries: occlusion, sorted, grouped and march render th
   std::vector<uint32_t> const hex_holed = with_holes(h);
   auto const lhex_holed = test::load(HexMesh{view(h.xyz), view(hex_holed), view(h.field)});
   HexNeighbours const hnb_holed = build_hex_neighbours(lhex_holed->mesh);
-  check_queries_agree("hexes with holes and face neighbours", Scene(lhex_holed->mesh, lhex_holed->bvh, nullptr, &hnb_holed), frame);
+  check_queries_agree("hexes with holes and face neighbours",
+                      Scene(lhex_holed->mesh, lhex_holed->bvh, nullptr, &hnb_holed), frame);
   Scene both = lt->scene();  // two overlapping parts: a ray occluded by the first skips the second
   both.hexes.push_back({lh->mesh, &lh->bvh, nullptr});
   check_queries_agree("tets + hexes", both, frame);
@@ -132,11 +136,7 @@ TEST_CASE("shadow and AO queries on a mixed mesh's two linked parts: AO rays mar
   UnstructuredGrid g = read_mesh(std::string(CELLRAY_TEST_DATA) + "/gmsh/mixed22.msh");
   REQUIRE(g.tet_count() > 0);
   REQUIRE(g.hex_count() > 0);
-  std::vector<float> field(g.vertex_count());
-  for (uint64_t v = 0; v < g.vertex_count(); ++v) {
-    float const* q = &g.xyz[3 * v];
-    field[v] = std::sin(3.f * q[0]) + q[1] * q[1] + 0.5f * q[2];
-  }
+  std::vector<float> field = test::curved_field(g.xyz);
   // lit_params' isovalues lie in [0.25, 0.6]: map the field onto [0, 1].
   float const lo = *std::min_element(field.begin(), field.end()), hi = *std::max_element(field.begin(), field.end());
   for (float& f : field) f = (f - lo) / (hi - lo);

@@ -127,7 +127,10 @@ template <int N> std::vector<uint32_t> cells_without(GeneratedMesh<N> const& g, 
   std::vector<uint32_t> out;
   for (size_t c = 0; c + N <= g.cells.size(); c += N) {
     glm::vec3 m(0.f);
-    for (int i = 0; i < N; ++i) m += glm::vec3(g.xyz[3 * g.cells[c + i]], g.xyz[3 * g.cells[c + i] + 1], g.xyz[3 * g.cells[c + i] + 2]);
+    for (int i = 0; i < N; ++i) {
+      float const* q = &g.xyz[3 * g.cells[c + size_t(i)]];
+      m += glm::vec3(q[0], q[1], q[2]);
+    }
     if (!drop(m / float(N))) out.insert(out.end(), g.cells.begin() + long(c), g.cells.begin() + long(c) + N);
   }
   return out;

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
@@ -31,6 +32,17 @@ template <int N> std::unique_ptr<Loaded<N>> load(CellMesh<N> const& m) {
   auto l = std::make_unique<Loaded<N>>(Loaded<N>{m, {}});
   l->bvh = build_minmax_bvh(l->mesh);
   return l;
+}
+
+/// sin(3x) + y^2 + z/2 at each vertex of `xyz` (3 floats a vertex): a
+/// curved field with isosurfaces across the gmsh test meshes (tests/data/gmsh).
+inline std::vector<float> curved_field(std::vector<float> const& xyz) {
+  std::vector<float> field(xyz.size() / 3);
+  for (size_t v = 0; v < field.size(); ++v) {
+    float const* q = &xyz[3 * v];
+    field[v] = std::sin(3.f * q[0]) + q[1] * q[1] + 0.5f * q[2];
+  }
+  return field;
 }
 
 /// A `w` x `h` camera that frames the whole scene.

@@ -43,11 +43,10 @@ template <int N> struct ScenePart {
   /// Face neighbours (build_hex_neighbours, 24 bytes per cell): cell-segment
   /// DVR and AO rays march through them, as a tet part's (see ScenePart<4>:
   /// one part, or a tet and a hexahedral part linked by
-  /// link_face_neighbours). Faster where cells are
-  /// small against a packet's footprint (1M hexes at 1024x1024, 1 thread:
-  /// DVR 1.4-1.8x the rays per second); coarse meshes do as well through
-  /// the tree (boxturb48's 110k: DVR 0.9-1.1x; AO rays 1.02x, the flange's
-  /// 1.03x).
+  /// link_face_neighbours). Faster where cells are small against a packet's
+  /// footprint (1M hexes at 1024x1024, 1 thread: DVR 1.4-1.8x the rays per
+  /// second); coarse meshes do as well through the tree (boxturb48's 110k:
+  /// DVR 0.9-1.1x; AO rays 1.02x, the flange's 1.03x).
   HexNeighbours const* neighbours = nullptr;
 };
 
@@ -60,8 +59,8 @@ template <int N> struct ScenePart {
 /// alone. Used when a scene has one part, or exactly one tet and one
 /// hexahedral part whose neighbours link_face_neighbours linked (a mixed
 /// mesh's two parts: DVR and AO rays march across both), and for meshes
-/// whose gather
-/// offsets fit 31 bits (under 2^29 cells and 2^31 / 3 vertices).
+/// whose gather offsets fit 31 bits (under 2^29 cells and 2^31 / 3
+/// vertices).
 template <> struct ScenePart<4> {
   CellMesh<4> mesh;
   MinMaxBvh const* bvh = nullptr;

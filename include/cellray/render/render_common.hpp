@@ -22,7 +22,7 @@ namespace cellray {
 /// A part's mesh view and its face neighbours, of one cell type.
 template <int N> struct PartCells {
   CellMesh<N> const* mesh = nullptr;
-  /// Set when DVR segments (and the AO rays of a one-part scene) may march.
+  /// Set when DVR segments and AO rays may march (one part, or two linked).
   FaceNeighbours<N> const* neighbours = nullptr;
 };
 

@@ -67,8 +67,8 @@ CELLRAY_FORCE_INLINE void for_each_leaf_cell(TreeView const& tree, CellMesh<N> c
     vmask<A> const in_box = m && box_hit(r, lo, hi, t_lo, t_hi(), tn);
     if (simd::none(in_box)) continue;
     order_corners(mesh.vertex_count(), k);
-    if constexpr (std::conjunction_v<std::bool_constant<CellOps<A, N>::holds_folded_tets>,
-                                     std::is_invocable<Visit&, FoldedTet<A> const&, vmask<A> const&, uint64_t, uint64_t>>) {
+    using TakesFolded = std::is_invocable<Visit&, FoldedTet<A> const&, vmask<A> const&, uint64_t, uint64_t>;
+    if constexpr (std::conjunction_v<std::bool_constant<CellOps<A, N>::holds_folded_tets>, TakesFolded>) {
       if (CellOps<A, N>::is_folded_tet(k.key)) {
         visit(CellOps<A, N>::broadcast_folded_tet(xyz, k), in_box, i, cell);
         continue;

@@ -134,7 +134,8 @@ template <class A, int N> struct FirstHitQuery {
     CellIsoHit<A> const h = iso_in_window(ray, f.tet, m, r.tmin, hit.t, isos.values, isos.count, method);
     if (simd::none(h.hit)) return;
     update(h.hit, h.t, h.iso_index, slots);
-    if (want_param) param = select<A>(h.hit, CellOps<A, N>::folded_tet_param(f, ray.origin() + h.t * ray.dir()), param);
+    if (want_param)
+      param = select<A>(h.hit, CellOps<A, N>::folded_tet_param(f, ray.origin() + h.t * ray.dir()), param);
     if (want_gradient) grad = select<A>(h.hit, CellOps<A, 4>::gradient_at(f.tet, Vec3<A>{}), grad);
   }
 };
