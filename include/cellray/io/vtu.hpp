@@ -9,6 +9,8 @@
 #include <cassert>
 #include <exception>
 #include <cstdint>
+#include <cstring>
+#include <limits>
 #include <set>
 #include <string>
 #include <string_view>
@@ -259,6 +261,42 @@ inline std::string inflate_append(unsigned char const* z, uint64_t zsize, uint64
       break;
     }
   }
+  inflateEnd(&zs);
+  return err;
+}
+
+/// Inflates the zlib stream [z, z + zsize) into exactly `want` bytes at
+/// `dst` (room for `want` bytes). Returns "" on success, else what went
+/// wrong, in inflate_append's words.
+inline std::string inflate_into(unsigned char const* z, uint64_t zsize, uint64_t want, unsigned char* dst) {
+  constexpr uint64_t max_feed = std::numeric_limits<uInt>::max();
+  if (zsize > max_feed || want > max_feed) {  // blocks are 32 KiB in VTK: not worth a loop
+    cellray::detail::LargeVector<unsigned char> out;
+    std::string err = inflate_append(z, zsize, want, out);
+    if (err.empty()) std::memcpy(dst, out.data(), size_t(want));
+    return err;
+  }
+  z_stream zs{};
+  if (inflateInit(&zs) != Z_OK) return "zlib cannot start";
+  zs.next_in = const_cast<Bytef*>(z);
+  zs.avail_in = uInt(zsize);
+  zs.next_out = dst;
+  zs.avail_out = uInt(want);
+  int rc = want > 0 ? inflate(&zs, Z_NO_FLUSH) : Z_OK;
+  uint64_t const produced = want - zs.avail_out;
+  bool holds_more = false;
+  if (rc == Z_OK) {  // all `want` bytes are in, or the input ran out: the stream must end here
+    unsigned char spare = 0;
+    zs.next_out = &spare;
+    zs.avail_out = 1;
+    rc = inflate(&zs, Z_NO_FLUSH);
+    holds_more = zs.avail_out == 0;
+  }
+  std::string err;
+  if (holds_more) err = "it holds more";
+  else if (rc == Z_STREAM_END) err = produced == want ? "" : "got " + std::to_string(produced);
+  else if (rc == Z_OK || rc == Z_BUF_ERROR) err = "the data ends after " + std::to_string(produced) + " bytes";
+  else err = zs.msg ? zs.msg : zError(rc);
   inflateEnd(&zs);
   return err;
 }
@@ -654,9 +692,13 @@ class VtuParser {
                                 " compressed bytes (corrupt header)");
     // The output grows only as blocks inflate: a header's claim allocates
     // nothing until compressed data backs it (VTK's header is not a promise).
+    // A claim within what the serial loop would reserve anyway is allocated
+    // at once and its blocks inflate in parallel.
+    uint64_t const trusted = 8 * ctotal + (uint64_t(1) << 20);
+    if (nblocks >= 2 && total <= trusted) return inflate_blocks(s, t, csize, block, last_size, total, what);
     cellray::detail::LargeVector<unsigned char> out;
     std::vector<unsigned char> tmp;
-    out.reserve(size_t(std::min(total, 8 * ctotal + (uint64_t(1) << 20))));
+    out.reserve(size_t(std::min(total, trusted)));
     for (uint64_t i = 0; i < nblocks; ++i) {
       uint64_t const here = s.offset();
       unsigned char const* z;
@@ -674,6 +716,53 @@ class VtuParser {
                                  " does not inflate to " + std::to_string(want) + " bytes (" + err + ")");
     }
     return NumArray::owning_bytes(t, total / esize, std::move(out), swap_);
+  }
+
+  /// zlib blocks inflated in parallel into one buffer of `total` bytes
+  /// (inflate is nearly all of loading a compressed file). Errors are those
+  /// of the serial loop, in its order: the first block that fails to
+  /// inflate, unless reading an earlier block's bytes failed first.
+  NumArray inflate_blocks(ByteStream& s, NumType t, std::vector<uint64_t> const& csize, uint64_t block, uint64_t last_size,
+                          uint64_t total, std::string const& what) {
+    uint64_t const nblocks = csize.size();
+    std::vector<unsigned char const*> z(nblocks);
+    std::vector<uint64_t> at(nblocks);
+    cellray::detail::LargeVector<unsigned char> text;  // base64 streams: every block's bytes, decoded
+    if (s.base64()) {
+      uint64_t ctotal = 0;
+      for (uint64_t c : csize) ctotal += c;
+      text.resize(size_t(ctotal));
+    }
+    uint64_t nread = 0, coff = 0;
+    std::exception_ptr read_failed;
+    try {
+      for (; nread < nblocks; ++nread) {
+        at[nread] = s.offset();
+        if (s.base64()) {
+          s.read(text.data() + coff, csize[nread]);
+          z[nread] = text.data() + coff;
+        } else {
+          z[nread] = s.raw(csize[nread]);
+        }
+        coff += csize[nread];
+      }
+    } catch (IoError const&) {
+      read_failed = std::current_exception();
+    }
+    cellray::detail::LargeVector<unsigned char> out;
+    out.resize(size_t(total));
+    std::vector<std::string> err(nread);
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nread, 1), [&](tbb::blocked_range<uint64_t> const& r) {
+      for (uint64_t i = r.begin(); i < r.end(); ++i)
+        err[i] = inflate_into(z[i], csize[i], i + 1 == nblocks ? last_size : block, out.data() + i * block);
+    });
+    for (uint64_t i = 0; i < nread; ++i)
+      if (!err[i].empty())
+        src_.fail_byte(at[i], what + ": zlib block " + std::to_string(i) + " of " + std::to_string(nblocks) +
+                                  " does not inflate to " + std::to_string(i + 1 == nblocks ? last_size : block) + " bytes (" +
+                                  err[i] + ")");
+    if (read_failed) std::rethrow_exception(read_failed);
+    return NumArray::owning_bytes(t, total / num_size(t), std::move(out), swap_);
   }
 
   /// One PointData / CellData child: a numeric DataArray becomes an array,
