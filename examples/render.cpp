@@ -970,7 +970,7 @@ int run(Options const& o) {
   // marches through face neighbours; so does a mixed mesh kept as two
   // parts, across both (link_face_neighbours), and the AO rays of a tet
   // mesh or of a mixed mesh's two parts. A hex mesh's AO rays could march
-  // too (the library does it when given neighbours), but gain 2-4% of a
+  // too (the library does it when given neighbours), but gain 2-3% of a
   // frame (boxturb48, the flange, 1 thread) where their neighbours cost
   // more (the flange: 40-90 ms).
   TetNeighbours neighbours;

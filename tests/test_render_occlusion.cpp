@@ -19,6 +19,7 @@
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/neighbours.hpp>
 
+#include "support/cell_subsets.hpp"
 #include "support/render_fixtures.hpp"
 #include "support/sanitized.hpp"
 
@@ -84,17 +85,7 @@ constexpr int frame = test::full_or_sanitized(64, 32);
 /// The generated mesh's cells less two slabs (their centroids' |x| <= 0.15
 /// or |y - 0.3| <= 0.1): AO rays leave the mesh through the holes' faces.
 template <int N> std::vector<uint32_t> with_holes(GeneratedMesh<N> const& g) {
-  std::vector<uint32_t> out;
-  for (size_t c = 0; c + N <= g.cells.size(); c += N) {
-    glm::vec3 m(0.f);
-    for (int i = 0; i < N; ++i) {
-      float const* q = &g.xyz[3 * g.cells[c + size_t(i)]];
-      m += glm::vec3(q[0], q[1], q[2]);
-    }
-    m *= 1.f / float(N);
-    if (std::abs(m.x) > 0.15f && std::abs(m.y - 0.3f) > 0.1f) out.insert(out.end(), &g.cells[c], &g.cells[c] + N);
-  }
-  return out;
+  return test::cells_without(g, [](glm::vec3 m) { return !(std::abs(m.x) > 0.15f && std::abs(m.y - 0.3f) > 0.1f); });
 }
 
 

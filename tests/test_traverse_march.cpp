@@ -24,6 +24,7 @@
 #include <cellray/mesh/neighbours.hpp>
 #include <cellray/traverse/occlusion_query.hpp>
 
+#include "support/cell_subsets.hpp"
 #include "support/march_probe.hpp"
 #include "support/ray_sets.hpp"
 #include "support/test_isa.hpp"
@@ -33,6 +34,7 @@
 namespace test_traverse_march {
 
 using namespace cellray;
+using test::cells_without;
 using test::lattice_rays;
 using test::random_rays;
 using test::union_length;
@@ -119,21 +121,6 @@ void check_ray(TetMesh const& mesh, Ray const& r, ValueWindows const& w, MarchPr
     INFO("cell " << x.cell << " t " << x.t_in << ".." << x.t_out);
     CHECK(found);
   }
-}
-
-/// The generated mesh's cells with those whose centroid satisfies `drop`
-/// removed (same vertices).
-template <int N> std::vector<uint32_t> cells_without(GeneratedMesh<N> const& g, bool (*drop)(glm::vec3)) {
-  std::vector<uint32_t> out;
-  for (size_t c = 0; c + N <= g.cells.size(); c += N) {
-    glm::vec3 m(0.f);
-    for (int i = 0; i < N; ++i) {
-      float const* q = &g.xyz[3 * g.cells[c + size_t(i)]];
-      m += glm::vec3(q[0], q[1], q[2]);
-    }
-    if (!drop(m / float(N))) out.insert(out.end(), g.cells.begin() + long(c), g.cells.begin() + long(c) + N);
-  }
-  return out;
 }
 
 }  // namespace
