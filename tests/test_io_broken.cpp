@@ -144,7 +144,6 @@ TEST_CASE("every broken file raises IoError naming file, place and problem", "[i
   }
 }
 
-/// Peak resident memory of this process so far, bytes (Linux: ru_maxrss in KiB).
 /// Standard base64 with padding, as VTK writes it.
 std::string to_base64(std::string const& in) {
   static char const* const abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
@@ -160,6 +159,7 @@ std::string to_base64(std::string const& in) {
   return out;
 }
 
+/// Peak resident memory of this process so far, bytes (Linux: ru_maxrss in KiB).
 uint64_t peak_rss() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
@@ -257,7 +257,7 @@ TEST_CASE("zlib blocks inflate in parallel, yet report the first bad block where
                       Catch::StartsWith("bad.vtu: byte " + std::to_string(at) + ": ") &&
                           Catch::Contains("zlib block 2 of 4 does not inflate to 24 bytes"));
   }
-  SECTION("an earlier bad block is reported before a later unreadable one, as in order") {
+  SECTION("a bad block is reported before a later unreadable one, as the serial reader did") {
     std::string const data_text = to_base64(blocks());
     std::string broken_text = data_text;
     broken_text.insert(data_text.size() / 4 * 3, "*");  // inside block 2 or 3's text
