@@ -1,5 +1,5 @@
 // MarchProbe (tests/support/march_probe.hpp) for one ISA: compiled once per
-// ISA with that ISA's flags. Drives TetMarch as the renderer does
+// ISA with that ISA's flags. Drives CellMarch as the renderer does
 // (dvr_integrators_impl.hpp, integrate_march), without the integration.
 
 #include <cellray/traverse/march.hpp>
@@ -8,16 +8,17 @@
 
 namespace cellray::test {
 
-template <class Arch>
-void MarchProbe<Arch>::run(TetMesh const& mesh, MinMaxBvh const& bvh, TetNeighbours const& nb,
-                           ValueWindows const& windows, Ray const* rays, int n, int how, int max_faint,
-                           MarchProbeOut* out) {
+namespace {
+
+template <class Arch, int N>
+void march_probe(CellMesh<N> const& mesh, MinMaxBvh const& bvh, FaceNeighbours<N> const& nb,
+                 ValueWindows const& windows, Ray const* rays, int n, int how, int max_faint, MarchProbeOut* out) {
   constexpr int W = width<Arch>;
   TreeView const tree(bvh);
   for (int first = 0; first < n; first += W) {
     int const m = n - first < W ? n - first : W;
     RayPacket<Arch> const r = load_rays<Arch>(rays + first, m);
-    TetMarch<Arch> march(tree, mesh, nb, r, windows, r.tmin, r.tmax);
+    CellMarch<Arch, N> march(tree, mesh, nb, r, windows, r.tmin, r.tmax);
     march.max_faint = max_faint;
     vmask<Arch> live = simd::mask_from_bits<Arch>(m >= 32 ? ~0u : (1u << m) - 1u);
     for (int l = 0; l < m; ++l) out[first + l] = MarchProbeOut{};
@@ -45,6 +46,22 @@ void MarchProbe<Arch>::run(TetMesh const& mesh, MinMaxBvh const& bvh, TetNeighbo
       live = live && march.t < march.t_end;
     }
   }
+}
+
+}  // namespace
+
+template <class Arch>
+void MarchProbe<Arch>::run(TetMesh const& mesh, MinMaxBvh const& bvh, TetNeighbours const& nb,
+                           ValueWindows const& windows, Ray const* rays, int n, int how, int max_faint,
+                           MarchProbeOut* out) {
+  march_probe<Arch>(mesh, bvh, nb, windows, rays, n, how, max_faint, out);
+}
+
+template <class Arch>
+void MarchProbe<Arch>::run(HexMesh const& mesh, MinMaxBvh const& bvh, HexNeighbours const& nb,
+                           ValueWindows const& windows, Ray const* rays, int n, int how, int max_faint,
+                           MarchProbeOut* out) {
+  march_probe<Arch>(mesh, bvh, nb, windows, rays, n, how, max_faint, out);
 }
 
 CELLRAY_INSTANTIATE_ENTRY(MarchProbe)

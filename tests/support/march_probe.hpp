@@ -1,5 +1,5 @@
 #pragma once
-// Test-only entry point: TetMarch (traverse/march.hpp) driven over host
+// Test-only entry point: CellMarch (traverse/march.hpp) driven over host
 // rays, one packet of W rays at a time, per ISA (tests/isa_traverse_march.cpp
 // instantiates it), recording every visible segment a lane steps through;
 // and the marched occlusion query of ambient-occlusion rays.
@@ -28,6 +28,8 @@ struct MarchProbeOut {
 /// 1 SPMD, 2 hybrid) for the locates. `out` has `n` entries.
 template <class Arch> struct MarchProbe {
   static void run(TetMesh const& mesh, MinMaxBvh const& bvh, TetNeighbours const& nb, ValueWindows const& windows,
+                  Ray const* rays, int n, int how, int max_faint, MarchProbeOut* out);
+  static void run(HexMesh const& mesh, MinMaxBvh const& bvh, HexNeighbours const& nb, ValueWindows const& windows,
                   Ray const* rays, int n, int how, int max_faint, MarchProbeOut* out);
 };
 CELLRAY_EXTERN_ENTRY(MarchProbe)

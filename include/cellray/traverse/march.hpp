@@ -36,14 +36,20 @@ namespace cellray {
 inline namespace CELLRAY_ISA_NS {
 
 /// Lanes whose cell may have opacity on the ray: a field linear along it
-/// (CellOps::linear_on_ray) is bounded by its end values; any other by the
-/// corner values (the shape functions are a convex combination).
+/// (CellOps::linear_on_ray, or a folded tet's clip: Clip::linear) is
+/// bounded by its end values; any other by the corner values (the shape
+/// functions are a convex combination).
 template <class A, int N>
-inline vmask<A> visible_values(ValueWindows const& w, CellCorners<A, N> const& c, CellClip<A> const& k) {
+inline vmask<A> visible_values(ValueWindows const& w, CellCorners<A, N> const& c,
+                               typename CellOps<A, N>::Clip const& k) {
   if constexpr (CellOps<A, N>::linear_on_ray)
     return windows_overlap<A>(w, simd::min(k.s_in, k.s_out), simd::max(k.s_in, k.s_out));
   vfloat<A> vmin = c.s[0], vmax = c.s[0];
   for (int i = 1; i < N; ++i) vmin = simd::min(vmin, c.s[i]), vmax = simd::max(vmax, c.s[i]);
+  if constexpr (CellOps<A, N>::holds_folded_tets) {
+    vmin = simd::select(k.linear, simd::min(k.s_in, k.s_out), vmin);
+    vmax = simd::select(k.linear, simd::max(k.s_in, k.s_out), vmax);
+  }
   return windows_overlap<A>(w, vmin, vmax);
 }
 
