@@ -317,7 +317,7 @@ constexpr char const* exit_code_help =
 void add_options(CLI::App& app, Options& o) {
   app.add_option("mesh", o.mesh_path, "Legacy .vtk, .vtu or .pvtu mesh (pieces merged); none: the generated default scene");
   app.add_option("--generate", o.generate, "Default scene cell type (without a mesh)")
-      ->check(CLI::IsMember({"tets", "hexes"}))
+      ->check(CLI::IsMember({"tets", "hexes", "wedges", "pyramids", "hex-family"}))
       ->capture_default_str();
   app.add_option("--cells", o.cells, "Default scene size in cells (approximate)")
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 31))
@@ -528,8 +528,12 @@ void add_default_field(UnstructuredGrid& g, std::string const& name) {
 void load(Options const& o, Loaded& l) {
   if (o.mesh_path.empty()) {
     l.name = "default scene";
-    if (o.generate == "hexes") {
-      l.gen_hexes = generate_hexes(o.cells);
+    if (o.generate != "tets") {
+      // Wedges and pyramids as collapsed hexahedra, as the readers store them.
+      if (o.generate == "hexes") l.gen_hexes = generate_hexes(o.cells);
+      else if (o.generate == "wedges") l.gen_hexes = generate_wedges(o.cells);
+      else if (o.generate == "pyramids") l.gen_hexes = generate_pyramids(o.cells);
+      else l.gen_hexes = generate_hex_family(o.cells * 2 / 3);  // a third of its lattice cells split in two
       l.hexes = l.gen_hexes->mesh();
     } else {
       l.gen_tets = generate_tets(o.cells);

@@ -781,6 +781,16 @@ template <class A> CELLRAY_FORCE_INLINE vmask<A> folded_tet_lanes(CellCorners<A,
   return simd::to_float_mask(c.id[2] == c.id[3] && c.id[4] == c.id[5] && c.id[5] == c.id[6] && c.id[6] == c.id[7]);
 }
 
+/// A folded tetrahedron's corners, hexahedron corners 0, 1, 2 and 4, as a
+/// tet in that order (unsorted).
+template <class A> CELLRAY_FORCE_INLINE CellCorners<A, 4> folded_tet_corners(CellCorners<A, 8> const& c) {
+  CellCorners<A, 4> t;
+  int const from[4] = {0, 1, 2, 4};
+  for (int i = 0; i < 4; ++i)
+    t.x[i] = c.x[from[i]], t.y[i] = c.y[from[i]], t.z[i] = c.z[from[i]], t.s[i] = c.s[from[i]], t.id[i] = c.id[from[i]];
+  return t;
+}
+
 /// clip_hex_window for `lanes` that all hold folded tets: the tet clip over
 /// corners 0, 1, 2 and 4 in ascending key order, as gather_corners<4>
 /// orders a tet (the hexahedron kernels cross a triangle face as the tet
@@ -797,11 +807,8 @@ CELLRAY_NOINLINE HexClip<A> clip_folded_tets(RayBatch<A> const& ray, CellCorners
   r.linear = lanes;
   // Tet corner i is hexahedron corner 0, 1, 2 or 4; the hexahedron face
   // opposite it (hex_faces: 5 = 1 2 6 5, 4 = 0 3 7 4, 2 = 0 1 5 4, 0 = 0 1 2 3).
-  CellCorners<A, 4> t;
+  CellCorners<A, 4> t = folded_tet_corners(c);
   vint<A> opposite[4] = {vint<A>(5), vint<A>(4), vint<A>(2), vint<A>(0)};
-  int const from[4] = {0, 1, 2, 4};
-  for (int i = 0; i < 4; ++i)
-    t.x[i] = c.x[from[i]], t.y[i] = c.y[from[i]], t.z[i] = c.z[from[i]], t.s[i] = c.s[from[i]], t.id[i] = c.id[from[i]];
   auto order = [&](int i, int j) {  // sort_tet_corners' network, carrying the faces along
     vmaski<A> const m = t.id[i] > t.id[j];
     vint<A> const lo = simd::select(m, opposite[j], opposite[i]);
@@ -1271,11 +1278,7 @@ template <class A> struct CellOps<A, 8> {
     };
     merge(f, k.s_in, k.s_out - k.s_in);
     if (!g) return;
-    CellCorners<A, 4> t;
-    int const from[4] = {0, 1, 2, 4};
-    for (int i = 0; i < 4; ++i)
-      t.x[i] = c.x[from[i]], t.y[i] = c.y[from[i]], t.z[i] = c.z[from[i]], t.s[i] = c.s[from[i]], t.id[i] = c.id[from[i]];
-    Vec3<A> const gt = gradient_tet(t);
+    Vec3<A> const gt = gradient_tet(isa_detail::folded_tet_corners(c));
     merge(g[0], gt.x, zero), merge(g[1], gt.y, zero), merge(g[2], gt.z, zero);
   }
 };

@@ -695,7 +695,7 @@ class VtuParser {
     // A claim within what the serial loop would reserve anyway is allocated
     // at once and its blocks inflate in parallel.
     uint64_t const trusted = 8 * ctotal + (uint64_t(1) << 20);
-    if (nblocks >= 2 && total <= trusted) return inflate_blocks(s, t, csize, block, last_size, total, what);
+    if (nblocks >= 2 && total <= trusted) return inflate_blocks(s, t, csize, ctotal, block, last_size, total, what);
     cellray::detail::LargeVector<unsigned char> out;
     std::vector<unsigned char> tmp;
     out.reserve(size_t(std::min(total, trusted)));
@@ -711,9 +711,7 @@ class VtuParser {
       }
       uint64_t const want = i + 1 == nblocks ? last_size : block;
       std::string const err = inflate_append(z, csize[i], want, out);
-      if (!err.empty())
-        src_.fail_byte(here, what + ": zlib block " + std::to_string(i) + " of " + std::to_string(nblocks) +
-                                 " does not inflate to " + std::to_string(want) + " bytes (" + err + ")");
+      if (!err.empty()) fail_block(here, what, i, nblocks, want, err);
     }
     return NumArray::owning_bytes(t, total / esize, std::move(out), swap_);
   }
@@ -722,17 +720,13 @@ class VtuParser {
   /// (inflate is nearly all of loading a compressed file). Errors are those
   /// of the serial loop, in its order: the first block that fails to
   /// inflate, unless reading an earlier block's bytes failed first.
-  NumArray inflate_blocks(ByteStream& s, NumType t, std::vector<uint64_t> const& csize, uint64_t block, uint64_t last_size,
-                          uint64_t total, std::string const& what) {
+  NumArray inflate_blocks(ByteStream& s, NumType t, std::vector<uint64_t> const& csize, uint64_t ctotal, uint64_t block,
+                          uint64_t last_size, uint64_t total, std::string const& what) {
     uint64_t const nblocks = csize.size();
     std::vector<unsigned char const*> z(nblocks);
     std::vector<uint64_t> at(nblocks);
     cellray::detail::LargeVector<unsigned char> text;  // base64 streams: every block's bytes, decoded
-    if (s.base64()) {
-      uint64_t ctotal = 0;
-      for (uint64_t c : csize) ctotal += c;
-      text.resize(size_t(ctotal));
-    }
+    if (s.base64()) text.resize(size_t(ctotal));
     uint64_t nread = 0, coff = 0;
     std::exception_ptr read_failed;
     try {
@@ -757,12 +751,16 @@ class VtuParser {
         err[i] = inflate_into(z[i], csize[i], i + 1 == nblocks ? last_size : block, out.data() + i * block);
     });
     for (uint64_t i = 0; i < nread; ++i)
-      if (!err[i].empty())
-        src_.fail_byte(at[i], what + ": zlib block " + std::to_string(i) + " of " + std::to_string(nblocks) +
-                                  " does not inflate to " + std::to_string(i + 1 == nblocks ? last_size : block) + " bytes (" +
-                                  err[i] + ")");
+      if (!err[i].empty()) fail_block(at[i], what, i, nblocks, i + 1 == nblocks ? last_size : block, err[i]);
     if (read_failed) std::rethrow_exception(read_failed);
     return NumArray::owning_bytes(t, total / num_size(t), std::move(out), swap_);
+  }
+
+  /// A zlib block that does not inflate to its size, named at byte `at`.
+  [[noreturn]] void fail_block(uint64_t at, std::string const& what, uint64_t i, uint64_t nblocks, uint64_t want,
+                               std::string const& err) const {
+    src_.fail_byte(at, what + ": zlib block " + std::to_string(i) + " of " + std::to_string(nblocks) +
+                           " does not inflate to " + std::to_string(want) + " bytes (" + err + ")");
   }
 
   /// One PointData / CellData child: a numeric DataArray becomes an array,
