@@ -443,6 +443,76 @@ TEST_CASE("watertight: hexes, wedges and pyramids across their shared faces", "[
   check_hex_guarantees(w);
 }
 
+// Cells gathered per lane (SPMD leaves, the march) clip as the packet load
+// (one cell broadcast to every lane) clips them, bit for bit: entry and exit
+// t, values and cell coordinates, hexahedra, wedges and pyramids alike.
+// Lanes that all hold one kind of cell listed alike cross their triangles
+// with the corner cycle turned once for every lane (lane_triangle_hit's
+// shared pattern), lanes of mixed kinds or listings by per-lane selects:
+// rays in cell order give batches of both, shuffled rays the second. On
+// the hex family as generate_hex_family lists it and relisted.
+TEST_CASE("hex family: cells gathered per lane clip as the packet clips them, bit for bit", "[cells][watertight][isa]") {
+  CellRunner const run{false, test::isa()};
+  Rng rng(31);
+  auto const generated = generate_hex_family(216, 5, 0.3f);
+  int compared = 0, differ = 0, hits = 0;
+  for (auto const& g : {generated, rotated_hexes(rotated_wedges(generated, 4), 6)}) {
+    CellMesh<8> const m = g.mesh();
+    uint64_t const cells = m.cell_count();
+    int const per_cell = 8;
+    std::vector<RayQuery> rays;
+    for (uint64_t c = 0; c < cells; ++c)
+      for (int r = 0; r < per_cell; ++r) {
+        glm::dvec3 target(0.0);
+        double sum = 0;
+        for (int k = 0; k < 8; ++k) {
+          double const w = rng.uniform(0.1, 1.0);
+          target += w * glm::dvec3(m.position(m.vertex(c, k))), sum += w;
+        }
+        glm::dvec3 const d = rng.direction(), o = target / sum - 2.0 * d;
+        rays.push_back({float(o.x), float(o.y), float(o.z), float(d.x), float(d.y), float(d.z)});
+      }
+    uint64_t const n = rays.size();
+    std::vector<ClipOut> packet(n);
+    for (uint64_t c = 0; c < cells; ++c)
+      run.clip(m, CellSelect{nullptr, c}, rays.data() + c * per_cell, per_cell, packet.data() + c * per_cell);
+    std::vector<size_t> order(n);
+    for (size_t i = 0; i < n; ++i) order[i] = i;
+    for (int pass = 0; pass < 2; ++pass) {
+      if (pass == 1)
+        for (size_t i = n - 1; i > 0; --i) std::swap(order[i], order[size_t(rng.next() % (i + 1))]);
+      std::vector<RayQuery> lane_rays(n);
+      std::vector<uint32_t> ids(n);
+      for (size_t i = 0; i < n; ++i) lane_rays[i] = rays[order[i]], ids[i] = uint32_t(order[i] / per_cell);
+      std::vector<ClipOut> lanes(n);
+      run.clip(m, CellSelect{ids.data(), 0}, lane_rays.data(), n, lanes.data());
+      for (size_t i = 0; i < n; ++i) {
+        ClipOut const& a = lanes[i];
+        ClipOut const& b = packet[order[i]];
+        ++compared;
+        bool same = a.hit == b.hit;
+        if (same && a.hit) {
+          float const fa[10] = {a.t_in, a.t_out, a.s_in, a.s_out, a.u_in[0], a.u_in[1], a.u_in[2], a.u_out[0], a.u_out[1], a.u_out[2]};
+          float const fb[10] = {b.t_in, b.t_out, b.s_in, b.s_out, b.u_in[0], b.u_in[1], b.u_in[2], b.u_out[0], b.u_out[1], b.u_out[2]};
+          for (int k = 0; k < 10; ++k) same = same && fa[k] == fb[k];
+          ++hits;
+        }
+        if (!same && differ < 5)
+          std::printf("%s pass %d cell %zu: per lane hit %d t [%.9g, %.9g] u_in (%.9g %.9g %.9g), packet hit %d t [%.9g, %.9g] "
+                      "u_in (%.9g %.9g %.9g)\n",
+                      run.name().c_str(), pass, order[i] / per_cell, a.hit, double(a.t_in), double(a.t_out),
+                      double(a.u_in[0]), double(a.u_in[1]), double(a.u_in[2]), b.hit, double(b.t_in), double(b.t_out),
+                      double(b.u_in[0]), double(b.u_in[1]), double(b.u_in[2]));
+        differ += int(!same);
+      }
+    }
+  }
+  std::printf("hex family per lane vs packet, %s: %d clips compared (%d hits), %d differ\n", run.name().c_str(), compared,
+              hits, differ);
+  CHECK(hits > compared * 95 / 100);  // rays aimed at points near each cell's centre
+  CHECK(differ == 0);
+}
+
 // A triangle between a tet and a wedge's end or a pyramid's side (two scene
 // parts, two kernels, as a mixed mesh renders): the ray's exit from the tet
 // and its entry into the other cell are the same t and the same value, bit
