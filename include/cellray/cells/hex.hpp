@@ -110,7 +110,7 @@ template <class A> struct PatchCorner {
 
 template <class A>
 CELLRAY_FORCE_INLINE PatchCorner<A> select_corner(vmask<A> const& m, vmaski<A> const& mi, PatchCorner<A> const& a,
-                                    PatchCorner<A> const& b) {
+                                                  PatchCorner<A> const& b) {
   return {select<A>(m, a.p, b.p), simd::select(m, a.s, b.s), simd::select(mi, a.id, b.id),
           select<A>(m, a.uvw, b.uvw)};
 }
@@ -580,9 +580,8 @@ template <class A> CELLRAY_FORCE_INLINE vmask<A> pyramid_lanes(CellCorners<A, 8>
 /// (the quadratic in u of patch_hits, after Reshetov) instead of Newton's
 /// 2 to 4 steps, which converge slowly towards the apex. Of the two roots
 /// the one with lambda > 0 nearest the base's unit square is taken (of two
-/// inside it, the one nearer `guess`). `ok`
-/// false where there is none (p at the apex, NaN corners): the caller falls
-/// back to invert_hex.
+/// inside it, the one nearer `guess`). `ok` false where there is none (p
+/// at the apex, NaN corners): the caller falls back to invert_hex.
 template <class A>
 inline Vec3<A> invert_pyramid(CellCorners<A, 8> const& c, Vec3<A> const& p, Vec3<A> const& guess, vmask<A>& ok) {
   vfloat<A> const zero(0.f), one(1.f);
@@ -1228,7 +1227,7 @@ inline CellIsoHit<A> iso_root_hex_neubauer(RayBatch<A> const& ray, HexClip<A> co
                                        [&](vfloat<A> const& lam, vmask<A> const& lanes) {
                                          vmask<A> conv;
                                          Vec3<A> const u = isa_detail::invert_on_ray(c, o + (clip.t_in + lam * dt) * d,
-                                                                              clip.u_in + lam * du, lanes, 4, conv);
+                                                                                     clip.u_in + lam * du, lanes, 4, conv);
                                          return isa_detail::trilerp<A>(c.s, u);
                                        });
 }
@@ -1329,7 +1328,7 @@ template <class A> struct CellOps<A, 8> {
       vfloat<A> const lam = simd::select(h.hit, (h.t - k.t_in) / dt, vfloat<A>(0.f));
       vmask<A> conv;
       Vec3<A> const u = isa_detail::invert_on_ray(c, r.origin() + simd::select(h.hit, h.t, k.t_in) * r.dir(),
-                                           k.u_in + lam * (k.u_out - k.u_in), h.hit, hex_newton_cap, conv);
+                                                  k.u_in + lam * (k.u_out - k.u_in), h.hit, hex_newton_cap, conv);
       *param = select<A>(h.hit, u, *param);
     }
     return h;
