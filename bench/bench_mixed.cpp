@@ -73,6 +73,17 @@ GeneratedMesh<8> folded(GeneratedMesh<4> const& t) {
   return g;
 }
 
+/// The tree, neighbours and scenes of mesh `m` (viewing the subject's arrays).
+template <int N> void prepare(Subject& s, CellMesh<N> const& m, FaceNeighbours<N>& neighbours) {
+  s.bvh = build_minmax_bvh(m);
+  if constexpr (N == 4) neighbours = build_tet_neighbours(m);
+  else neighbours = build_hex_neighbours(m);
+  s.iso = Scene(m, s.bvh);
+  s.dvr = Scene(m, s.bvh, nullptr, &neighbours);
+  s.cells = m.cell_count();
+  s.neighbour_bytes = neighbours.memory_bytes();
+}
+
 Subject& subject(std::string const& name) {
   static std::map<std::string, std::unique_ptr<Subject>> cache;
   auto it = cache.find(name);
@@ -85,23 +96,8 @@ Subject& subject(std::string const& name) {
   else if (name == "pyramids") s->gh = generate_pyramids(n);
   else if (name == "hex_family") s->gh = generate_hex_family(n * 2 / 3);  // a third of the lattice cells split in two
   else if (name == "folded_tets") s->gh = folded(generate_tets(n));
-  if (s->tets) {
-    TetMesh const m = s->gt.mesh();
-    s->bvh = build_minmax_bvh(m);
-    s->tet_neighbours = build_tet_neighbours(m);
-    s->iso = Scene(m, s->bvh);
-    s->dvr = Scene(m, s->bvh, nullptr, &s->tet_neighbours);
-    s->cells = m.cell_count();
-    s->neighbour_bytes = s->tet_neighbours.memory_bytes();
-  } else {
-    HexMesh const m = s->gh.mesh();
-    s->bvh = build_minmax_bvh(m);
-    s->hex_neighbours = build_hex_neighbours(m);
-    s->iso = Scene(m, s->bvh);
-    s->dvr = Scene(m, s->bvh, nullptr, &s->hex_neighbours);
-    s->cells = m.cell_count();
-    s->neighbour_bytes = s->hex_neighbours.memory_bytes();
-  }
+  if (s->tets) prepare(*s, s->gt.mesh(), s->tet_neighbours);
+  else prepare(*s, s->gh.mesh(), s->hex_neighbours);
   s->index_bytes = (s->tets ? s->gt.cells.size() : s->gh.cells.size()) * sizeof(uint32_t);
   s->iso.bounds(s->lo, s->hi);
   return *cache.emplace(name, std::move(s)).first->second;
