@@ -35,6 +35,7 @@
 #include <cellray/bvh/build.hpp>
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/neighbours.hpp>
+#include <cellray/mesh/vtk_cells.hpp>
 #include <cellray/render/camera.hpp>
 #include <cellray/render/render.hpp>
 
@@ -60,16 +61,14 @@ struct Subject {
   uint64_t cells = 0, index_bytes = 0, neighbour_bytes = 0;
 };
 
-/// The tets stored as collapsed hexahedra (0 1 2 2 3 3 3 3, as
+/// The tets stored as collapsed hexahedra (tet_as_hex, as
 /// fold_tets_into_hexes stores them).
 GeneratedMesh<8> folded(GeneratedMesh<4> const& t) {
   GeneratedMesh<8> g;
   g.xyz = t.xyz, g.field = t.field, g.field_t1 = t.field_t1, g.lattice = t.lattice;
   g.cells.reserve(t.cells.size() * 2);
-  for (size_t c = 0; c < t.cells.size(); c += 4) {
-    uint32_t const* q = t.cells.data() + c;
-    g.cells.insert(g.cells.end(), {q[0], q[1], q[2], q[2], q[3], q[3], q[3], q[3]});
-  }
+  for (size_t c = 0; c < t.cells.size(); c += 4)
+    for (int k : tet_as_hex) g.cells.push_back(t.cells[c + size_t(k)]);
   return g;
 }
 
