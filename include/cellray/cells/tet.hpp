@@ -110,7 +110,12 @@ CELLRAY_FORCE_INLINE TriangleCrossing<A> triangle_crossing(Vec3<A> const& o, Vec
   return {dot(cross(rel, e2), n) / nn, dot(cross(e1, rel), n) / nn};
 }
 
-template <class A> inline vmask<A> mask_xor(vmask<A> const& a, vmask<A> const& b) { return (a && !b) || (!a && b); }
+/// a xor b, as !(a == b): xsimd 8.1's own mask xor and != are each wrong on
+/// one ISA (AVX-512's `^` ors the mask registers; SSE's `!=` compares the
+/// masks as floats, where all-ones is a NaN), its == is right on all three.
+/// Forced inline: GCC 12 had kept the and/or form out of line in
+/// add_triangle_faces.
+template <class A> CELLRAY_FORCE_INLINE vmask<A> mask_xor(vmask<A> const& a, vmask<A> const& b) { return !(a == b); }
 
 template <class A> inline vfloat<A> clamp01(vfloat<A> const& x) {
   return simd::min(simd::max(x, vfloat<A>(0.f)), vfloat<A>(1.f));  // NaN -> 0
