@@ -904,8 +904,8 @@ int run(Options const& o) {
   double validate_ms = 0;
   {
     Phase ph(progress, "validating");
-    check_part(l.tets, o, "tetrahedra", vlo, vhi);
-    check_part(l.hexes, o, "hexahedra", vlo, vhi);
+    check_part(l.tets, o, "tetrahedral part", vlo, vhi);
+    check_part(l.hexes, o, "hexahedral part", vlo, vhi);
     validate_ms = ph.finish();
   }
   // Smooth isosurface normals: per-vertex gradients of the rendered array.
@@ -959,8 +959,8 @@ int run(Options const& o) {
     set_active(l.hexes, array);
     vlo = std::numeric_limits<float>::infinity();
     vhi = -vlo;
-    check_part(l.tets, o, "tetrahedra", vlo, vhi);
-    check_part(l.hexes, o, "hexahedra", vlo, vhi);
+    check_part(l.tets, o, "tetrahedral part", vlo, vhi);
+    check_part(l.hexes, o, "hexahedral part", vlo, vhi);
     auto const t0 = Clock::now();
     if (!l.tets.empty()) refit_ranges(tet_bvh, l.tets, tet_ranges, isa);
     if (!l.hexes.empty()) refit_ranges(hex_bvh, l.hexes, hex_ranges, isa);

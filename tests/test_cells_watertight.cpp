@@ -635,8 +635,9 @@ TEST_CASE("watertight: real meshes (post.vtk tets, disk_out_ref.vtu hexes)", "[c
 // tets its polyhedra split into, with the tets folded into hexahedra as
 // `cellray-render` keeps this mesh (one part), so every pair of types meets
 // across a face somewhere. The 3,000 cells nearest the first tet cut from
-// a polyhedron (brute force is quadratic in the cells), with 10 of them
-// inverted (validate; the shape snappyHexMesh left them): the ball's own
+// a polyhedron (brute force is quadratic in the cells), 10 of them with a
+// negative Jacobian at a corner (validate's `distorted`: pyramids over
+// warped faces, as snappyHexMesh left them; none inside out): the ball's own
 // boundary faces are not aimed at (Topology), and holes along a ray longer
 // than 1e-4 of its span are that boundary, not a crack (convex = false).
 TEST_CASE("watertight: the snappy flange's hexes, wedges, pyramids and tets across their shared faces",
@@ -683,8 +684,8 @@ TEST_CASE("watertight: the snappy flange's hexes, wedges, pyramids and tets acro
   for (size_t v = 0; v < field.size(); ++v) field[v] = analytic_field({xyz[3 * v], xyz[3 * v + 1], xyz[3 * v + 2]});
   HexMesh const mesh(view(xyz), view(ball), view(field), "field");
   ValidationReport const v = validate(mesh);
-  std::printf("flange ball: %llu inverted, %llu zero-volume\n", (unsigned long long)v.inverted.count,
-              (unsigned long long)v.zero_volume.count);
+  std::printf("flange ball: %llu distorted, %llu inverted, %llu zero-volume\n", (unsigned long long)v.distorted.count,
+              (unsigned long long)v.inverted.count, (unsigned long long)v.zero_volume.count);
   auto const h = measure(run, mesh, 60, false, 11);
   report("snappy flange", run, h);
   // The guarantees of the generated hexahedra: through faces exactly (quads,

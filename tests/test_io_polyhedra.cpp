@@ -94,13 +94,18 @@ TEST_CASE("the snappy flange's polyhedra split into the cells foamToVTK -poly-de
   CHECK(double(g.report.polyhedron_pyramids) == Approx(pyramids).epsilon(1e-3));
   CHECK(double(g.report.polyhedron_tets) == Approx(tets).epsilon(1e-3));
   // A fan of a concave face made inverted tets (8,070 of 127,428); the cut
-  // from the widest corner makes none, and no more inverted pyramids than
-  // foamToVTK's file has (its pyramids and hexes: 2,796).
+  // from the widest corner makes none. No cell of either file is inside
+  // out; pyramids over warped faces (and a few concave hexahedra) have a
+  // negative Jacobian at a corner, no more here than in foamToVTK's file
+  // (2,797 of its pyramids and hexahedra).
   ValidationReport const tr = validate(g.tet_mesh().with_array("T"));
   ValidationReport const hr = validate(g.hex_mesh().with_array("T"));
   ValidationReport const dh = validate(d.hex_mesh().with_array("T"));
   CHECK(tr.inverted.count == 0);
-  CHECK(double(hr.inverted.count) <= 1.01 * double(dh.inverted.count));
+  CHECK(hr.inverted.count == 0);
+  CHECK(dh.inverted.count == 0);
+  CHECK(dh.distorted.count > 0);
+  CHECK(double(hr.distorted.count) <= 1.01 * double(dh.distorted.count));
 }
 
 TEST_CASE("a polyhedron whose faces do not close, or name a missing point, is an error naming it", "[io][polyhedra]") {

@@ -14,6 +14,7 @@
 #include <cellray/mesh/cell_types.hpp>
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/validate.hpp>
+#include <cellray/mesh/vtk_cells.hpp>
 
 // One namespace per file: a stage's files compile as one unity TU
 // (tests/CMakeLists.txt), where file-local names must not meet.
@@ -147,6 +148,60 @@ TEST_CASE("validate names bad indices, non-finite data, flat and inverted cells"
   CHECK(hrep.inverted.count == 1);
   CHECK(hrep.inverted.first == 1);
   CHECK(validate(HexMesh{view(flat), view(hi)}).zero_volume.count == 2);
+}
+
+TEST_CASE("validate tells concave and warped cells from inverted ones, and names the kinds a hexahedral view holds",
+          "[mesh]") {
+  // A unit cube (cell 0), the cube with corner 6 pushed in past the plane
+  // of its three neighbours (cell 1: negative Jacobian at that corner, yet
+  // positive volume), the cube listed mirrored (cell 2: inside out), a
+  // wedge (3), a pyramid (4), a pyramid with its apex below its base (5)
+  // and a tetrahedron (6), the last four stored as the readers store them.
+  std::vector<float> xyz = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1,
+                            0.3f, 0.3f, 0.3f,  // 8: the dent
+                            0.5f, 0.5f, 1, 0.5f, 0.5f, -1};  // 9, 10: apexes
+  auto as_hex = [](std::array<uint32_t, 8> const& ids, std::array<int, 8> const& order) {
+    std::array<uint32_t, 8> h{};
+    for (int k = 0; k < 8; ++k) h[size_t(k)] = ids[size_t(order[size_t(k)])];
+    return h;
+  };
+  std::vector<std::array<uint32_t, 8>> cells = {
+      {0, 1, 2, 3, 4, 5, 6, 7},
+      {0, 1, 2, 3, 4, 5, 8, 7},
+      {0, 3, 2, 1, 4, 7, 6, 5},
+      as_hex({0, 3, 1, 4, 7, 5, 0, 0}, wedge_as_hex),  // VTK: the base's normal points away from the top
+      as_hex({0, 1, 2, 3, 9, 0, 0, 0}, pyramid_as_hex),
+      as_hex({0, 1, 2, 3, 10, 0, 0, 0}, pyramid_as_hex),
+      as_hex({0, 1, 3, 4, 0, 0, 0, 0}, tet_as_hex),
+  };
+  std::vector<uint32_t> ids;
+  for (auto const& c : cells) ids.insert(ids.end(), c.begin(), c.end());
+  ValidationReport const rep = validate(HexMesh{view(xyz), view(ids)});
+  CHECK(rep.ok());
+  CHECK(rep.distorted.count == 1);
+  CHECK(rep.distorted.first == 1);
+  CHECK(rep.inverted.count == 2);
+  CHECK(rep.inverted.first == 2);
+  CHECK(!rep.zero_volume);
+  // A concave cell is a note, not a warning: real meshes have them.
+  std::vector<uint32_t> dented(ids.begin(), ids.begin() + 16);
+  ValidationReport const only_dent = validate(HexMesh{view(xyz), view(dented)});
+  CHECK(only_dent.distorted.count == 1);
+  CHECK(!only_dent.inverted);
+  CHECK_FALSE(only_dent.has_warnings());
+  CHECK_THAT(only_dent.message(), Catch::Contains("2 hexahedra,") &&
+                                      Catch::Contains("note: 1 cells with a negative Jacobian at a corner"));
+  CHECK(rep.kinds[int(CollapsedKind::hexahedron)] == 3);
+  CHECK(rep.kinds[int(CollapsedKind::wedge)] == 1);
+  CHECK(rep.kinds[int(CollapsedKind::pyramid)] == 2);
+  CHECK(rep.kinds[int(CollapsedKind::tetrahedron)] == 1);
+  CHECK_THAT(rep.message(), Catch::Contains("7 cells (3 hexahedra, 1 wedge, 2 pyramids, 1 tetrahedron)") &&
+                                Catch::Contains("2 inverted cells (negative volume) (first cell 2, a hexahedron)") &&
+                                Catch::Contains("(first cell 1, a hexahedron)"));
+  // The inverted pyramid alone is named as one.
+  std::vector<uint32_t> below(ids.begin() + 5 * 8, ids.begin() + 6 * 8);
+  CHECK_THAT(validate(HexMesh{view(xyz), view(below)}).message(),
+             Catch::Contains("1 cells (1 pyramid)") && Catch::Contains("(first cell 0, a pyramid)"));
 }
 
 TEST_CASE("The cell-type list: AnyCellMesh visits each view as its own type", "[mesh][types]") {

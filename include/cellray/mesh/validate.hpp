@@ -5,6 +5,14 @@
 // reported and rendered with a documented outcome: a cell with a NaN value
 // is invisible; a zero-volume cell is never hit; an inverted cell renders
 // like its mirror image (the kernels do not depend on orientation).
+//
+// A hexahedron (or a wedge or pyramid stored as one) whose volume is
+// positive but whose Jacobian is negative at some corner is not inverted:
+// a concave or warped cell, common in real meshes (snappyHexMesh's pyramids
+// over warped faces, crushed shells). Its trilinear map folds near that
+// corner, in VTK as here; it is reported as a note (`distorted`), not a
+// warning, with the kinds of cell a hexahedral view holds (collapsed
+// hexahedra: wedges, pyramids, tetrahedra).
 
 #include <algorithm>
 #include <cmath>
@@ -40,6 +48,37 @@ struct Finding {
   explicit operator bool() const { return count != 0; }
 };
 
+/// What a hexahedral view's cells are, by their distinct vertex ids: 8 a
+/// hexahedron, 6 a wedge, 5 a pyramid, 4 a tetrahedron (collapsed ones, as
+/// the readers store them), 7 a hexahedron with one collapsed edge.
+enum class CollapsedKind : int { hexahedron, collapsed_edge, wedge, pyramid, tetrahedron, fewer, count };
+
+inline char const* collapsed_kind_name(CollapsedKind k, bool plural) {
+  static char const* const one[] = {"hexahedron", "hexahedron with a collapsed edge", "wedge", "pyramid",
+                                    "tetrahedron", "cell of under 4 distinct vertices"};
+  static char const* const many[] = {"hexahedra", "hexahedra with a collapsed edge", "wedges", "pyramids",
+                                     "tetrahedra", "cells of under 4 distinct vertices"};
+  return (plural ? many : one)[int(k)];
+}
+
+/// The kind of a hexahedral cell from its 8 vertex ids.
+inline CollapsedKind collapsed_kind(uint64_t const (&v)[8]) {
+  int distinct = 0;
+  for (int k = 0; k < 8; ++k) {
+    bool seen = false;
+    for (int j = 0; j < k; ++j) seen = seen || v[j] == v[k];
+    distinct += !seen;
+  }
+  switch (distinct) {
+    case 8: return CollapsedKind::hexahedron;
+    case 7: return CollapsedKind::collapsed_edge;
+    case 6: return CollapsedKind::wedge;
+    case 5: return CollapsedKind::pyramid;
+    case 4: return CollapsedKind::tetrahedron;
+    default: return CollapsedKind::fewer;
+  }
+}
+
 /// What `validate()` found. Cheap to copy; `message()` is one line per finding.
 struct ValidationReport {
   CellType cell_type = CellType::tet;
@@ -49,7 +88,15 @@ struct ValidationReport {
   Finding unused_nonfinite_position;  ///< warning: NaN or inf coordinate of a vertex no cell uses (ignored)
   Finding nonfinite_value;     ///< warning: NaN or inf in the active array at a vertex a cell uses (vertex ids)
   Finding zero_volume;         ///< warning: flat or collapsed cells (cell ids)
-  Finding inverted;            ///< warning: negative orientation (cell ids)
+  Finding inverted;            ///< warning: negative volume, turned inside out (cell ids)
+  /// Note, not a warning: positive volume but a negative Jacobian at some
+  /// corner (hexahedral views: a concave or twisted cell; cell ids).
+  Finding distorted;
+  /// Hexahedral views: cells of each CollapsedKind (all zero for tetrahedra).
+  uint64_t kinds[int(CollapsedKind::count)] = {};
+  /// Hexahedral views: the kind of the first cell of each cell finding.
+  CollapsedKind inverted_kind = CollapsedKind::hexahedron, distorted_kind = CollapsedKind::hexahedron,
+          zero_volume_kind = CollapsedKind::hexahedron;
   float value_min = std::numeric_limits<float>::infinity();   ///< finite values only
   float value_max = -std::numeric_limits<float>::infinity();
 
@@ -59,20 +106,42 @@ struct ValidationReport {
     return bool(nonfinite_value) || bool(zero_volume) || bool(inverted) || bool(unused_nonfinite_position);
   }
 
+  /// True when a hexahedral view holds collapsed cells too.
+  bool mixed() const {
+    uint64_t collapsed = 0;
+    for (int k = 1; k < int(CollapsedKind::count); ++k) collapsed += kinds[k];
+    return collapsed != 0;
+  }
+
   std::string message() const {
     std::ostringstream s;
     char const* what = cell_type == CellType::tet ? "tetrahedra" : "hexahedra";
-    s << cells << " " << what << ", " << vertices << " vertices";
+    if (mixed()) {
+      s << cells << " cells (";
+      char const* sep = "";
+      for (int k = 0; k < int(CollapsedKind::count); ++k)
+        if (kinds[k]) s << sep << kinds[k] << " " << collapsed_kind_name(CollapsedKind(k), kinds[k] != 1), sep = ", ";
+      s << ")";
+    } else {
+      s << cells << " " << what;
+    }
+    s << ", " << vertices << " vertices";
     if (value_min <= value_max) s << ", values [" << value_min << ", " << value_max << "]";
-    auto line = [&](Finding const& f, char const* level, char const* text, char const* id) {
-      if (f) s << "\n  " << level << ": " << f.count << " " << text << " (first " << id << " " << f.first << ")";
+    auto line = [&](Finding const& f, char const* level, char const* text, char const* id,
+                    CollapsedKind const* kind = nullptr) {
+      if (!f) return;
+      s << "\n  " << level << ": " << f.count << " " << text << " (first " << id << " " << f.first;
+      if (kind && mixed()) s << ", a " << collapsed_kind_name(*kind, false);
+      s << ")";
     };
     line(bad_index, "error", "cells with a vertex index out of range", "cell");
     line(nonfinite_position, "error", "vertices with a non-finite position", "vertex");
     line(unused_nonfinite_position, "warning", "vertices no cell uses with a non-finite position (ignored)", "vertex");
     line(nonfinite_value, "warning", "vertices with a non-finite value (their cells are invisible)", "vertex");
-    line(zero_volume, "warning", "cells of zero volume (never hit)", "cell");
-    line(inverted, "warning", "inverted cells", "cell");
+    line(zero_volume, "warning", "cells of zero volume (never hit)", "cell", &zero_volume_kind);
+    line(inverted, "warning", "inverted cells (negative volume)", "cell", &inverted_kind);
+    line(distorted, "note", "cells with a negative Jacobian at a corner (positive volume: concave or warped)", "cell",
+         &distorted_kind);
     return s.str();
   }
   friend std::ostream& operator<<(std::ostream& os, ValidationReport const& r) { return os << r.message(); }
@@ -89,6 +158,34 @@ inline glm::dvec3 dpos(float const* xyz, uint64_t v) {
 inline double relative_det(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c) {
   double const scale = glm::length(a) * glm::length(b) * glm::length(c);
   return scale > 0 ? glm::dot(glm::cross(a, b), c) / scale : 0.0;
+}
+
+/// The signed volume of the trilinear map of 8 corners (VTK hexahedron
+/// order; collapsed corners allowed), relative to its longest edge cubed:
+/// 2x2x2 Gauss points integrate det J exactly (it is of degree 2 in each
+/// coordinate).
+inline double relative_hex_volume(glm::dvec3 const (&p)[8]) {
+  static constexpr int edges[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
+                                       {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+  double longest = 0;
+  for (auto const& e : edges) longest = std::max(longest, glm::length(p[e[1]] - p[e[0]]));
+  if (!(longest > 0)) return 0.0;
+  double const g[2] = {0.5 - 0.5 / std::sqrt(3.0), 0.5 + 0.5 / std::sqrt(3.0)};
+  double volume = 0;
+  for (double u : g)
+    for (double v : g)
+      for (double w : g) {
+        double const U[2] = {1 - u, u}, V[2] = {1 - v, v}, W[2] = {1 - w, w};
+        glm::dvec3 du(0.0), dv(0.0), dw(0.0);
+        for (int k = 0; k < 8; ++k) {
+          int const a = (k & 1) ^ ((k >> 1) & 1), b = (k >> 1) & 1, c = k >> 2;  // VTK corner k's (u, v, w)
+          du += p[k] * ((a ? 1.0 : -1.0) * V[b] * W[c]);
+          dv += p[k] * ((b ? 1.0 : -1.0) * U[a] * W[c]);
+          dw += p[k] * ((c ? 1.0 : -1.0) * U[a] * V[b]);
+        }
+        volume += glm::dot(glm::cross(du, dv), dw) / 8;
+      }
+  return volume / (longest * longest * longest);
 }
 
 // Flatness threshold on the sine-like relative determinant: below 1e-7 the
@@ -156,7 +253,8 @@ template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
   rep.value_max = vpart.hi;
 
   struct CellPart {
-    Finding index, flat, inverted;
+    Finding index, flat, inverted, distorted;
+    uint64_t kinds[int(CollapsedKind::count)] = {};
   };
   auto cpart = tbb::parallel_reduce(
       tbb::blocked_range<uint64_t>(0, mesh.cell_count(), 1 << 12), CellPart{},
@@ -189,8 +287,13 @@ template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
               if (std::fabs(d) > detail::flat_tolerance) all_flat = false;
               if (d < -detail::flat_tolerance) any_negative = true;
             }
+            ++acc.kinds[int(collapsed_kind(v))];
             if (all_flat) acc.flat.add(c);
-            else if (any_negative) acc.inverted.add(c);
+            else if (any_negative) {
+              // Negative at a corner: inside out only if the volume is.
+              if (detail::relative_hex_volume(p) < -detail::flat_tolerance) acc.inverted.add(c);
+              else acc.distorted.add(c);
+            }
           }
         }
         return acc;
@@ -199,11 +302,26 @@ template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
         a.index.merge(b.index);
         a.flat.merge(b.flat);
         a.inverted.merge(b.inverted);
+        a.distorted.merge(b.distorted);
+        for (int k = 0; k < int(CollapsedKind::count); ++k) a.kinds[k] += b.kinds[k];
         return a;
       });
   rep.bad_index = cpart.index;
   rep.zero_volume = cpart.flat;
   rep.inverted = cpart.inverted;
+  rep.distorted = cpart.distorted;
+  if constexpr (N == 8) {
+    for (int k = 0; k < int(CollapsedKind::count); ++k) rep.kinds[k] = cpart.kinds[k];
+    auto kind_of = [&](Finding const& f) {
+      if (!f || f.first >= mesh.cell_count()) return CollapsedKind::hexahedron;
+      uint64_t v[8];
+      for (int k = 0; k < 8; ++k) v[k] = mesh.vertex(f.first, k);
+      return collapsed_kind(v);
+    };
+    rep.inverted_kind = kind_of(rep.inverted);
+    rep.distorted_kind = kind_of(rep.distorted);
+    rep.zero_volume_kind = kind_of(rep.zero_volume);
+  }
   return rep;
 }
 
