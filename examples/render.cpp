@@ -470,6 +470,32 @@ struct Loaded {
   }
 };
 
+/// What the parts hold, for --info: "N tetrahedra" and the hexahedral
+/// part's cells by kind (wedges, pyramids and folded tetrahedra are stored
+/// as collapsed hexahedra; mesh/validate.hpp names them).
+std::string describe_parts(Loaded const& l) {
+  std::ostringstream s;
+  uint64_t kinds[int(CollapsedKind::count)] = {};
+  for (uint64_t c = 0; c < l.hexes.cell_count(); ++c) {
+    uint64_t v[8];
+    for (int k = 0; k < 8; ++k) v[k] = l.hexes.vertex(c, k);
+    ++kinds[int(collapsed_kind(v))];
+  }
+  int const parts = int(!l.tets.empty()) + int(!l.hexes.empty());
+  s << (parts == 2 ? "two parts, " : "one part, ");
+  if (!l.tets.empty()) s << l.tets.cell_count() << " tetrahedra" << (l.hexes.empty() ? "" : " and ");
+  if (!l.hexes.empty()) {
+    bool const only_hexahedra = kinds[int(CollapsedKind::hexahedron)] == l.hexes.cell_count();
+    s << l.hexes.cell_count() << (only_hexahedra ? " hexahedra" : " cells as hexahedra (");
+    char const* sep = "";
+    for (int k = 0; k < int(CollapsedKind::count) && !only_hexahedra; ++k)
+      if (kinds[k]) s << sep << kinds[k] << " " << collapsed_kind_name(CollapsedKind(k), kinds[k] != 1), sep = ", ";
+    if (!only_hexahedra) s << ")";
+  }
+  if (l.tets.empty() && l.hexes.empty()) s << "no cells";
+  return s.str();
+}
+
 std::string list_names(std::vector<std::string> const& names) {
   std::string s;
   for (auto const& n : names) s += (s.empty() ? "" : ", ") + shown(n);
@@ -873,8 +899,8 @@ int run(Options const& o) {
     std::cerr << "cellray-render: note: skipped " << l.grid->report.skipped_count() << " unsupported cells\n";
   auto const names = point_array_names(l);
   if (o.info) {
-    std::cerr << l.name << ": " << l.tets.cell_count() << " tetrahedra, " << l.hexes.cell_count() << " hexahedra, "
-              << l.vertices() << " vertices\n  point arrays: " << list_names(names)
+    std::cerr << l.name << ": " << describe_parts(l) << "; " << l.vertices() << " vertices\n  point arrays: "
+              << list_names(names)
               << "\n  cell arrays: " << list_names(cell_array_names(l)) << "\n";
     return exit_ok;
   }
