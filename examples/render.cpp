@@ -475,22 +475,17 @@ struct Loaded {
 /// as collapsed hexahedra; mesh/validate.hpp names them).
 std::string describe_parts(Loaded const& l) {
   std::ostringstream s;
-  uint64_t kinds[int(CollapsedKind::count)] = {};
+  KindCounts kinds;
   for (uint64_t c = 0; c < l.hexes.cell_count(); ++c) {
     uint64_t v[8];
     for (int k = 0; k < 8; ++k) v[k] = l.hexes.vertex(c, k);
-    ++kinds[int(collapsed_kind(v))];
+    kinds.add(collapsed_kind(v));
   }
-  int const parts = int(!l.tets.empty()) + int(!l.hexes.empty());
-  s << (parts == 2 ? "two parts, " : "one part, ");
+  s << (!l.tets.empty() && !l.hexes.empty() ? "two parts, " : "one part, ");
   if (!l.tets.empty()) s << l.tets.cell_count() << " tetrahedra" << (l.hexes.empty() ? "" : " and ");
   if (!l.hexes.empty()) {
-    bool const only_hexahedra = kinds[int(CollapsedKind::hexahedron)] == l.hexes.cell_count();
-    s << l.hexes.cell_count() << (only_hexahedra ? " hexahedra" : " cells as hexahedra (");
-    char const* sep = "";
-    for (int k = 0; k < int(CollapsedKind::count) && !only_hexahedra; ++k)
-      if (kinds[k]) s << sep << kinds[k] << " " << collapsed_kind_name(CollapsedKind(k), kinds[k] != 1), sep = ", ";
-    if (!only_hexahedra) s << ")";
+    if (kinds[CollapsedKind::hexahedron] == l.hexes.cell_count()) s << l.hexes.cell_count() << " hexahedra";
+    else s << l.hexes.cell_count() << " cells as hexahedra (" << kinds.list() << ")";
   }
   if (l.tets.empty() && l.hexes.empty()) s << "no cells";
   return s.str();

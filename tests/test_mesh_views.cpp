@@ -191,17 +191,21 @@ TEST_CASE("validate tells concave and warped cells from inverted ones, and names
   CHECK_FALSE(only_dent.has_warnings());
   CHECK_THAT(only_dent.message(), Catch::Contains("2 hexahedra,") &&
                                       Catch::Contains("note: 1 cells with a negative Jacobian at a corner"));
-  CHECK(rep.kinds[int(CollapsedKind::hexahedron)] == 3);
-  CHECK(rep.kinds[int(CollapsedKind::wedge)] == 1);
-  CHECK(rep.kinds[int(CollapsedKind::pyramid)] == 2);
-  CHECK(rep.kinds[int(CollapsedKind::tetrahedron)] == 1);
-  CHECK_THAT(rep.message(), Catch::Contains("7 cells (3 hexahedra, 1 wedge, 2 pyramids, 1 tetrahedron)") &&
-                                Catch::Contains("2 inverted cells (negative volume) (first cell 2, a hexahedron)") &&
-                                Catch::Contains("(first cell 1, a hexahedron)"));
+  CHECK(rep.kinds[CollapsedKind::hexahedron] == 3);
+  CHECK(rep.kinds[CollapsedKind::wedge] == 1);
+  CHECK(rep.kinds[CollapsedKind::pyramid] == 2);
+  CHECK(rep.kinds[CollapsedKind::tetrahedron] == 1);
+  CHECK(rep.inverted_kinds[CollapsedKind::hexahedron] == 1);
+  CHECK(rep.inverted_kinds[CollapsedKind::pyramid] == 1);
+  CHECK(rep.distorted_kinds[CollapsedKind::hexahedron] == 1);
+  CHECK_THAT(rep.message(),
+             Catch::Contains("7 cells (3 hexahedra, 1 wedge, 2 pyramids, 1 tetrahedron)") &&
+                 Catch::Contains("2 inverted cells (negative volume) (1 hexahedron, 1 pyramid; first cell 2)") &&
+                 Catch::Contains("corner (positive volume: concave or warped) (1 hexahedron; first cell 1)"));
   // The inverted pyramid alone is named as one.
   std::vector<uint32_t> below(ids.begin() + 5 * 8, ids.begin() + 6 * 8);
   CHECK_THAT(validate(HexMesh{view(xyz), view(below)}).message(),
-             Catch::Contains("1 cells (1 pyramid)") && Catch::Contains("(first cell 0, a pyramid)"));
+             Catch::Contains("1 cells (1 pyramid)") && Catch::Contains("(1 pyramid; first cell 0)"));
 }
 
 TEST_CASE("The cell-type list: AnyCellMesh visits each view as its own type", "[mesh][types]") {

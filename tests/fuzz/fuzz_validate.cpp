@@ -128,9 +128,11 @@ void run(Bytes& in, uint8_t flags, uint8_t tuning, uint64_t nv, uint64_t nc, flo
   require(rep.ok() == (bad_cells == 0 && bad_positions == 0), "ok() differs from brute force");
   // Each cell with ids in range is of one kind and at most one of flat,
   // inverted or distorted.
-  uint64_t kinds = 0;
-  for (uint64_t k : rep.kinds) kinds += k;
-  require(kinds == (N == 8 ? nc - bad_cells : 0), "cell kinds do not add up to the cells with ids in range");
+  require(rep.kinds.total() == (N == 8 ? nc - bad_cells : 0), "cell kinds do not add up to the cells with ids in range");
+  require(rep.inverted_kinds.total() == (N == 8 ? rep.inverted.count : 0) &&
+              rep.distorted_kinds.total() == rep.distorted.count &&
+              rep.zero_volume_kinds.total() == (N == 8 ? rep.zero_volume.count : 0),
+          "findings by kind do not add up");
   require(rep.zero_volume.count + rep.inverted.count + rep.distorted.count <= nc - bad_cells,
           "a cell counted under two shape findings");
   require(N == 8 || !rep.distorted, "a tetrahedron reported distorted");

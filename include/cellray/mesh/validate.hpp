@@ -79,6 +79,29 @@ inline CollapsedKind collapsed_kind(uint64_t const (&v)[8]) {
   }
 }
 
+/// Cells counted per CollapsedKind.
+struct KindCounts {
+  uint64_t n[int(CollapsedKind::count)] = {};
+  uint64_t operator[](CollapsedKind k) const { return n[int(k)]; }
+  void add(CollapsedKind k) { ++n[int(k)]; }
+  void merge(KindCounts const& o) {
+    for (int k = 0; k < int(CollapsedKind::count); ++k) n[k] += o.n[k];
+  }
+  uint64_t total() const {
+    uint64_t t = 0;
+    for (uint64_t c : n) t += c;
+    return t;
+  }
+  /// "69115 hexahedra, 9246 wedges, 109178 pyramids" (kinds present only).
+  std::string list() const {
+    std::string s;
+    for (int k = 0; k < int(CollapsedKind::count); ++k)
+      if (n[k])
+        s += (s.empty() ? "" : ", ") + std::to_string(n[k]) + " " + collapsed_kind_name(CollapsedKind(k), n[k] != 1);
+    return s;
+  }
+};
+
 /// What `validate()` found. Cheap to copy; `message()` is one line per finding.
 struct ValidationReport {
   CellType cell_type = CellType::tet;
@@ -92,11 +115,9 @@ struct ValidationReport {
   /// Note, not a warning: positive volume but a negative Jacobian at some
   /// corner (hexahedral views: a concave or twisted cell; cell ids).
   Finding distorted;
-  /// Hexahedral views: cells of each CollapsedKind (all zero for tetrahedra).
-  uint64_t kinds[int(CollapsedKind::count)] = {};
-  /// Hexahedral views: the kind of the first cell of each cell finding.
-  CollapsedKind inverted_kind = CollapsedKind::hexahedron, distorted_kind = CollapsedKind::hexahedron,
-          zero_volume_kind = CollapsedKind::hexahedron;
+  /// Hexahedral views (all zero for tetrahedra): the cells of each kind,
+  /// and the flat, inverted and distorted ones among them.
+  KindCounts kinds, zero_volume_kinds, inverted_kinds, distorted_kinds;
   float value_min = std::numeric_limits<float>::infinity();   ///< finite values only
   float value_max = -std::numeric_limits<float>::infinity();
 
@@ -107,41 +128,33 @@ struct ValidationReport {
   }
 
   /// True when a hexahedral view holds collapsed cells too.
-  bool mixed() const {
-    uint64_t collapsed = 0;
-    for (int k = 1; k < int(CollapsedKind::count); ++k) collapsed += kinds[k];
-    return collapsed != 0;
-  }
+  bool mixed() const { return kinds.total() != kinds[CollapsedKind::hexahedron]; }
 
   std::string message() const {
     std::ostringstream s;
     char const* what = cell_type == CellType::tet ? "tetrahedra" : "hexahedra";
     if (mixed()) {
-      s << cells << " cells (";
-      char const* sep = "";
-      for (int k = 0; k < int(CollapsedKind::count); ++k)
-        if (kinds[k]) s << sep << kinds[k] << " " << collapsed_kind_name(CollapsedKind(k), kinds[k] != 1), sep = ", ";
-      s << ")";
+      s << cells << " cells (" << kinds.list() << ")";
     } else {
       s << cells << " " << what;
     }
     s << ", " << vertices << " vertices";
     if (value_min <= value_max) s << ", values [" << value_min << ", " << value_max << "]";
     auto line = [&](Finding const& f, char const* level, char const* text, char const* id,
-                    CollapsedKind const* kind = nullptr) {
+                    KindCounts const* by_kind = nullptr) {
       if (!f) return;
-      s << "\n  " << level << ": " << f.count << " " << text << " (first " << id << " " << f.first;
-      if (kind && mixed()) s << ", a " << collapsed_kind_name(*kind, false);
-      s << ")";
+      s << "\n  " << level << ": " << f.count << " " << text << " (";
+      if (by_kind && mixed()) s << by_kind->list() << "; ";
+      s << "first " << id << " " << f.first << ")";
     };
     line(bad_index, "error", "cells with a vertex index out of range", "cell");
     line(nonfinite_position, "error", "vertices with a non-finite position", "vertex");
     line(unused_nonfinite_position, "warning", "vertices no cell uses with a non-finite position (ignored)", "vertex");
     line(nonfinite_value, "warning", "vertices with a non-finite value (their cells are invisible)", "vertex");
-    line(zero_volume, "warning", "cells of zero volume (never hit)", "cell", &zero_volume_kind);
-    line(inverted, "warning", "inverted cells (negative volume)", "cell", &inverted_kind);
+    line(zero_volume, "warning", "cells of zero volume (never hit)", "cell", &zero_volume_kinds);
+    line(inverted, "warning", "inverted cells (negative volume)", "cell", &inverted_kinds);
     line(distorted, "note", "cells with a negative Jacobian at a corner (positive volume: concave or warped)", "cell",
-         &distorted_kind);
+         &distorted_kinds);
     return s.str();
   }
   friend std::ostream& operator<<(std::ostream& os, ValidationReport const& r) { return os << r.message(); }
@@ -254,7 +267,7 @@ template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
 
   struct CellPart {
     Finding index, flat, inverted, distorted;
-    uint64_t kinds[int(CollapsedKind::count)] = {};
+    KindCounts kinds, flat_kinds, inverted_kinds, distorted_kinds;
   };
   auto cpart = tbb::parallel_reduce(
       tbb::blocked_range<uint64_t>(0, mesh.cell_count(), 1 << 12), CellPart{},
@@ -287,12 +300,16 @@ template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
               if (std::fabs(d) > detail::flat_tolerance) all_flat = false;
               if (d < -detail::flat_tolerance) any_negative = true;
             }
-            ++acc.kinds[int(collapsed_kind(v))];
-            if (all_flat) acc.flat.add(c);
-            else if (any_negative) {
+            CollapsedKind const kind = collapsed_kind(v);
+            acc.kinds.add(kind);
+            if (all_flat) {
+              acc.flat.add(c), acc.flat_kinds.add(kind);
+            } else if (any_negative) {
               // Negative at a corner: inside out only if the volume is.
-              if (detail::relative_hex_volume(p) < -detail::flat_tolerance) acc.inverted.add(c);
-              else acc.distorted.add(c);
+              if (detail::relative_hex_volume(p) < -detail::flat_tolerance)
+                acc.inverted.add(c), acc.inverted_kinds.add(kind);
+              else
+                acc.distorted.add(c), acc.distorted_kinds.add(kind);
             }
           }
         }
@@ -303,25 +320,16 @@ template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
         a.flat.merge(b.flat);
         a.inverted.merge(b.inverted);
         a.distorted.merge(b.distorted);
-        for (int k = 0; k < int(CollapsedKind::count); ++k) a.kinds[k] += b.kinds[k];
+        a.kinds.merge(b.kinds), a.flat_kinds.merge(b.flat_kinds);
+        a.inverted_kinds.merge(b.inverted_kinds), a.distorted_kinds.merge(b.distorted_kinds);
         return a;
       });
   rep.bad_index = cpart.index;
   rep.zero_volume = cpart.flat;
   rep.inverted = cpart.inverted;
   rep.distorted = cpart.distorted;
-  if constexpr (N == 8) {
-    for (int k = 0; k < int(CollapsedKind::count); ++k) rep.kinds[k] = cpart.kinds[k];
-    auto kind_of = [&](Finding const& f) {
-      if (!f || f.first >= mesh.cell_count()) return CollapsedKind::hexahedron;
-      uint64_t v[8];
-      for (int k = 0; k < 8; ++k) v[k] = mesh.vertex(f.first, k);
-      return collapsed_kind(v);
-    };
-    rep.inverted_kind = kind_of(rep.inverted);
-    rep.distorted_kind = kind_of(rep.distorted);
-    rep.zero_volume_kind = kind_of(rep.zero_volume);
-  }
+  rep.kinds = cpart.kinds, rep.zero_volume_kinds = cpart.flat_kinds;
+  rep.inverted_kinds = cpart.inverted_kinds, rep.distorted_kinds = cpart.distorted_kinds;
   return rep;
 }
 
