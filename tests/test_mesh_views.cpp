@@ -202,6 +202,21 @@ TEST_CASE("validate tells concave and warped cells from inverted ones, and names
              Catch::Contains("7 cells (3 hexahedra, 1 wedge, 2 pyramids, 1 tetrahedron)") &&
                  Catch::Contains("2 inverted cells (negative volume) (1 hexahedron, 1 pyramid; first cell 2)") &&
                  Catch::Contains("corner (positive volume: concave or warped) (1 hexahedron; first cell 1)"));
+  // Kinds come from the faces' shapes, not the count of distinct ids: a
+  // pyramid listed with its apex below (4 4 4 4 0 1 2 3) is one, a wedge
+  // with one collapsed edge (OpenFOAM's tet-wedge: 5 ids) is not, nor is a
+  // hexahedron with a collapsed edge (7 ids).
+  auto kind = [](std::array<uint64_t, 8> const& a) {
+    uint64_t v[8];
+    for (int k = 0; k < 8; ++k) v[k] = a[size_t(k)];
+    return collapsed_kind(v);
+  };
+  CHECK(kind({9, 9, 9, 9, 0, 1, 2, 3}) == CollapsedKind::pyramid);
+  CHECK(kind({0, 2, 1, 1, 3, 3, 4, 4}) == CollapsedKind::other);
+  CHECK(kind({0, 1, 2, 3, 4, 4, 6, 7}) == CollapsedKind::other);
+  CHECK(kind({0, 1, 1, 0, 2, 3, 3, 2}) == CollapsedKind::other);  // 4 ids, two edges: no tetrahedron
+  CHECK(kind({0, 1, 1, 0, 2, 2, 2, 2}) == CollapsedKind::fewer);
+  CHECK(kind({0, 1, 2, 3, 4, 5, 6, 7}) == CollapsedKind::hexahedron);
   // The inverted pyramid alone is named as one.
   std::vector<uint32_t> below(ids.begin() + 5 * 8, ids.begin() + 6 * 8);
   CHECK_THAT(validate(HexMesh{view(xyz), view(below)}).message(),

@@ -48,35 +48,54 @@ struct Finding {
   explicit operator bool() const { return count != 0; }
 };
 
-/// What a hexahedral view's cells are, by their distinct vertex ids: 8 a
-/// hexahedron, 6 a wedge, 5 a pyramid, 4 a tetrahedron (collapsed ones, as
-/// the readers store them), 7 a hexahedron with one collapsed edge.
-enum class CollapsedKind : int { hexahedron, collapsed_edge, wedge, pyramid, tetrahedron, fewer, count };
+/// What a hexahedral view's cells are, by the shapes of their six faces
+/// (VTK hexahedron faces: 4 distinct ids a quad, 3 with one repeated pair
+/// of neighbours a triangle, 2 or 1 collapsed): a hexahedron has 6 quads, a
+/// wedge 3 quads and 2 triangles, a pyramid 1 quad and 4 triangles, a
+/// tetrahedron 4 triangles (the last three as the readers store them, or
+/// any other listing of the same shape). Any other collapse (an edge of a
+/// hexahedron, OpenFOAM's tet-wedge) is `other`; under 4 distinct ids,
+/// `fewer` (no volume).
+enum class CollapsedKind : int { hexahedron, wedge, pyramid, tetrahedron, other, fewer, count };
 
 inline char const* collapsed_kind_name(CollapsedKind k, bool plural) {
-  static char const* const one[] = {"hexahedron", "hexahedron with a collapsed edge", "wedge", "pyramid",
-                                    "tetrahedron", "cell of under 4 distinct vertices"};
-  static char const* const many[] = {"hexahedra", "hexahedra with a collapsed edge", "wedges", "pyramids",
-                                     "tetrahedra", "cells of under 4 distinct vertices"};
+  static char const* const one[] = {"hexahedron", "wedge", "pyramid", "tetrahedron", "other collapsed hexahedron",
+                                    "cell of under 4 distinct vertices"};
+  static char const* const many[] = {"hexahedra", "wedges", "pyramids", "tetrahedra", "other collapsed hexahedra",
+                                     "cells of under 4 distinct vertices"};
   return (plural ? many : one)[int(k)];
 }
 
-/// The kind of a hexahedral cell from its 8 vertex ids.
+/// The kind of a hexahedral cell from its 8 vertex ids (VTK order). One
+/// bit per pair of corners with equal ids, then bit tests: branch-free for
+/// the usual cells (validation runs on every cell of a first image).
 inline CollapsedKind collapsed_kind(uint64_t const (&v)[8]) {
-  int distinct = 0;
-  for (int k = 0; k < 8; ++k) {
-    bool seen = false;
-    for (int j = 0; j < k; ++j) seen = seen || v[j] == v[k];
-    distinct += !seen;
+  auto bit = [](int i, int j) { return i * 8 + j; };  // i < j
+  uint64_t eq = 0;
+  for (int i = 0; i < 8; ++i)
+    for (int j = i + 1; j < 8; ++j) eq |= uint64_t(v[i] == v[j]) << bit(i, j);
+  if (eq == 0) return CollapsedKind::hexahedron;
+  auto same = [&](int i, int j) { return int((eq >> (i < j ? bit(i, j) : bit(j, i))) & 1u); };
+  int distinct = 8;
+  for (int k = 1; k < 8; ++k) {
+    int seen = 0;
+    for (int j = 0; j < k; ++j) seen |= same(j, k);
+    distinct -= seen;
   }
-  switch (distinct) {
-    case 8: return CollapsedKind::hexahedron;
-    case 7: return CollapsedKind::collapsed_edge;
-    case 6: return CollapsedKind::wedge;
-    case 5: return CollapsedKind::pyramid;
-    case 4: return CollapsedKind::tetrahedron;
-    default: return CollapsedKind::fewer;
+  if (distinct < 4) return CollapsedKind::fewer;
+  static constexpr int faces[6][4] = {{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 5, 4},
+                                      {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}};
+  int quads = 0, triangles = 0;
+  for (auto const& f : faces) {
+    int const neighbours = same(f[0], f[1]) + same(f[1], f[2]) + same(f[2], f[3]) + same(f[3], f[0]);
+    int const opposite = same(f[0], f[2]) + same(f[1], f[3]);
+    quads += neighbours == 0 && opposite == 0;
+    triangles += neighbours == 1 && opposite == 0;
   }
+  if (quads == 3 && triangles == 2 && distinct == 6) return CollapsedKind::wedge;
+  if (quads == 1 && triangles == 4 && distinct == 5) return CollapsedKind::pyramid;
+  if (quads == 0 && triangles == 4 && distinct == 4) return CollapsedKind::tetrahedron;
+  return CollapsedKind::other;
 }
 
 /// Cells counted per CollapsedKind.
@@ -166,13 +185,6 @@ inline glm::dvec3 dpos(float const* xyz, uint64_t v) {
   return {double(xyz[3 * v]), double(xyz[3 * v + 1]), double(xyz[3 * v + 2])};
 }
 
-/// Orientation of the corner spanned by three edges, relative to their
-/// lengths: < 0 inverted, ~0 flat. Double precision: float input is exact.
-inline double relative_det(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c) {
-  double const scale = glm::length(a) * glm::length(b) * glm::length(c);
-  return scale > 0 ? glm::dot(glm::cross(a, b), c) / scale : 0.0;
-}
-
 /// The signed volume of the trilinear map of 8 corners (VTK hexahedron
 /// order; collapsed corners allowed), relative to its longest edge cubed:
 /// 2x2x2 Gauss points integrate det J exactly (it is of degree 2 in each
@@ -205,12 +217,27 @@ inline double relative_hex_volume(glm::dvec3 const (&p)[8]) {
 // cell's thickness is under float resolution of its edges.
 inline constexpr double flat_tolerance = 1e-7;
 
+/// Orientation of the corner spanned by three edges: +1 or -1 when their
+/// determinant, relative to the product of their lengths, is beyond
+/// flat_tolerance, else 0 (flat, a zero edge, or NaN). Compared squared: no
+/// roots or divisions per corner (validation runs on every cell of a first
+/// image). Double precision: float input is exact, and sixth powers of
+/// float edge lengths stay within double's range.
+inline int corner_orientation(glm::dvec3 const& a, glm::dvec3 const& b, glm::dvec3 const& c) {
+  double const d = glm::dot(glm::cross(a, b), c);
+  double const lengths2 = glm::dot(a, a) * glm::dot(b, b) * glm::dot(c, c);
+  if (!(d * d > flat_tolerance * flat_tolerance * lengths2)) return 0;
+  return d > 0 ? 1 : -1;
+}
+
 }  // namespace detail
 
 /// Checks indices, positions, the active values and cell shapes. Parallel
-/// (TBB), deterministic; reads the mesh only. For hexahedra, "inverted"
-/// means a negative Jacobian at some corner (VTK corner edge order), "zero
-/// volume" that every corner is flat.
+/// (TBB), deterministic; reads the mesh only. For hexahedra (and the
+/// collapsed ones: wedges, pyramids, folded tetrahedra), "inverted" means
+/// a negative volume, "distorted" a negative Jacobian at some corner (VTK
+/// corner edge order) with a positive volume, "zero volume" that every
+/// corner is flat.
 template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
   ValidationReport rep;
   rep.cell_type = CellMesh<N>::cell_type;
@@ -286,9 +313,9 @@ template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
           glm::dvec3 p[N];
           for (int k = 0; k < N; ++k) p[k] = detail::dpos(xyz, v[k]);
           if constexpr (N == 4) {
-            double const d = detail::relative_det(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
-            if (!(std::fabs(d) > detail::flat_tolerance)) acc.flat.add(c);
-            else if (d < 0) acc.inverted.add(c);
+            int const o = detail::corner_orientation(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
+            if (o == 0) acc.flat.add(c);
+            else if (o < 0) acc.inverted.add(c);
           } else {
             // Corner k's edges to its three neighbours, ordered so that a
             // regular VTK hexahedron gives positive determinants.
@@ -296,9 +323,9 @@ template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
                                              {7, 5, 0}, {4, 6, 1}, {5, 7, 2}, {6, 4, 3}};
             bool all_flat = true, any_negative = false;
             for (int k = 0; k < 8; ++k) {
-              double const d = detail::relative_det(p[nb[k][0]] - p[k], p[nb[k][1]] - p[k], p[nb[k][2]] - p[k]);
-              if (std::fabs(d) > detail::flat_tolerance) all_flat = false;
-              if (d < -detail::flat_tolerance) any_negative = true;
+              int const o = detail::corner_orientation(p[nb[k][0]] - p[k], p[nb[k][1]] - p[k], p[nb[k][2]] - p[k]);
+              all_flat = all_flat && o == 0;
+              any_negative = any_negative || o < 0;
             }
             CollapsedKind const kind = collapsed_kind(v);
             acc.kinds.add(kind);
