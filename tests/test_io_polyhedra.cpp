@@ -97,7 +97,7 @@ TEST_CASE("the snappy flange's polyhedra split into the cells foamToVTK -poly-de
   // from the widest corner makes none. No cell of either file is inside
   // out; pyramids over warped faces (and a few concave hexahedra) have a
   // negative Jacobian at a corner, no more here than in foamToVTK's file
-  // (2,797 of its pyramids and hexahedra).
+  // (2,796 of its pyramids and hexahedra).
   ValidationReport const tr = validate(g.tet_mesh().with_array("T"));
   ValidationReport const hr = validate(g.hex_mesh().with_array("T"));
   ValidationReport const dh = validate(d.hex_mesh().with_array("T"));
