@@ -465,6 +465,9 @@ struct Loaded {
   uint64_t cells() const { return tets.cell_count() + hexes.cell_count(); }
   uint64_t vertices() const { return tets.empty() ? hexes.vertex_count() : tets.vertex_count(); }
   uint64_t tets_as_hexes = 0;  // tets folded into the hexahedra (load_file)
+  /// The file's id of each cell of a part (empty: the cell's index is its id).
+  Span<uint32_t> tet_file_cells() const { return grid ? view(grid->tet_file_cells) : Span<uint32_t>{}; }
+  Span<uint32_t> hex_file_cells() const { return grid ? view(grid->hex_file_cells) : Span<uint32_t>{}; }
   std::string cell_type() const {
     return tets_as_hexes || (!tets.empty() && !hexes.empty()) ? "mixed" : tets.empty() ? "hex" : "tet";
   }
@@ -628,9 +631,12 @@ template <int N> void set_active(CellMesh<N>& m, std::string const& name) {
 }
 
 /// Validates a non-empty part; returns its finite value range through lo/hi.
-template <int N> void check_part(CellMesh<N> const& m, Options const& o, char const* what, float& lo, float& hi) {
+/// Findings name the file's cell ids (`file_cells`, where the reader
+/// reordered the cells), as ParaView shows them.
+template <int N>
+void check_part(CellMesh<N> const& m, Span<uint32_t> file_cells, Options const& o, char const* what, float& lo, float& hi) {
   if (m.empty()) return;
-  ValidationReport const rep = validate(m);
+  ValidationReport const rep = validate(m, file_cells);
   if (o.verbose) std::cerr << "cellray-render: " << what << ": " << rep.message() << "\n";
   if (!rep.ok()) throw InvalidMesh(std::string(what) + " failed validation: " + one_line(rep.message()));
   if (rep.has_warnings() && !o.verbose) std::cerr << "cellray-render: warning: " << what << ": " << one_line(rep.message()) << "\n";
@@ -925,8 +931,8 @@ int run(Options const& o) {
   double validate_ms = 0;
   {
     Phase ph(progress, "validating");
-    check_part(l.tets, o, "tetrahedral part", vlo, vhi);
-    check_part(l.hexes, o, "hexahedral part", vlo, vhi);
+    check_part(l.tets, l.tet_file_cells(), o, "tetrahedral part", vlo, vhi);
+    check_part(l.hexes, l.hex_file_cells(), o, "hexahedral part", vlo, vhi);
     validate_ms = ph.finish();
   }
   // Smooth isosurface normals: per-vertex gradients of the rendered array.
@@ -980,8 +986,8 @@ int run(Options const& o) {
     set_active(l.hexes, array);
     vlo = std::numeric_limits<float>::infinity();
     vhi = -vlo;
-    check_part(l.tets, o, "tetrahedral part", vlo, vhi);
-    check_part(l.hexes, o, "hexahedral part", vlo, vhi);
+    check_part(l.tets, l.tet_file_cells(), o, "tetrahedral part", vlo, vhi);
+    check_part(l.hexes, l.hex_file_cells(), o, "hexahedral part", vlo, vhi);
     auto const t0 = Clock::now();
     if (!l.tets.empty()) refit_ranges(tet_bvh, l.tets, tet_ranges, isa);
     if (!l.hexes.empty()) refit_ranges(hex_bvh, l.hexes, hex_ranges, isa);

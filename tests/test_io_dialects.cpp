@@ -67,11 +67,13 @@ TestGrid make_grid(bool with_wedge) {
 void check_grid(UnstructuredGrid const& r, TestGrid const& g, bool velocity_read = true) {
   REQUIRE(r.vertex_count() == 24);
   for (size_t i = 0; i < g.xyz.size(); ++i) CHECK(r.xyz[i] == float(g.xyz[i]));
-  std::vector<uint32_t> tets, hexes;
+  std::vector<uint32_t> tets, hexes, tet_ids, hex_ids;  // ids: the cells' places in the file
   std::vector<float> ptet, phex;
   for (size_t c = 0; c < g.cells.size(); ++c) {
     auto const& ids = g.cells[c];
     int const t = g.types[c];
+    if (t == 10 || t == 24) tet_ids.push_back(uint32_t(c));
+    if (t == 11 || t == 12 || t == 13 || t == 14 || t == 25) hex_ids.push_back(uint32_t(c));
     if (t == 10 || t == 24) {
       for (int k = 0; k < 4; ++k) tets.push_back(uint32_t(ids[k]));
       ptet.push_back(float(g.pressure[c]));
@@ -91,6 +93,8 @@ void check_grid(UnstructuredGrid const& r, TestGrid const& g, bool velocity_read
   }
   CHECK(r.tets == tets);
   CHECK(r.hexes == hexes);
+  CHECK(r.tet_file_cells == tet_ids);  // a mixed file (and a skipped cell): the readers' order is not the file's
+  CHECK(r.hex_file_cells == hex_ids);
   CHECK(r.report.reduced_to_linear == 3);  // quadratic tet, voxel, quadratic hex
   PointArray const* t = r.point_array("temperature");
   REQUIRE(t);
@@ -513,10 +517,52 @@ TEST_CASE("fold_tets_into_hexes stores each tet as a collapsed hexahedron, cell 
         std::vector<uint32_t>{4, 5, 6, 6, 8, 8, 8, 8, 4, 6, 7, 7, 8, 8, 8, 8});
   CHECK(g.cell_array("q")->hex_values == std::vector<float>{2, 1, 3});
   CHECK(g.cell_array("q")->tet_values.empty());
+  CHECK(g.hex_file_cells == std::vector<uint32_t>{1, 0, 2});  // the file's cell ids follow the cells
+  CHECK(g.tet_file_cells.empty());
   ValidationReport const r = validate(g.hex_mesh());  // positive, not flat
   CHECK(!r.inverted);
   CHECK(!r.zero_volume);
   CHECK(g.fold_tets_into_hexes() == 0);
+  CHECK(g.hex_file_cells == std::vector<uint32_t>{1, 0, 2});
+}
+
+TEST_CASE("validation names the file's cell ids where the reader reordered the cells", "[io]") {
+  // Hexahedron, tet, a wedge turned inside out (its top triangle below its
+  // bottom), tet, a hexahedron turned inside out. The readers keep the tets
+  // and hexahedra apart: the hexahedral part's cells 1 and 2 are the
+  // file's cells 2 and 4, and the folded tets come after them.
+  std::string const f =
+      "# vtk DataFile Version 2.0\nids\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 14 float\n"
+      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n"
+      "0 0 2\n1 0 2\n0 1 2\n0 0 3\n1 0 3\n0 1 3\n"
+      "CELLS 5 35\n8 0 1 2 3 4 5 6 7\n4 4 5 6 8\n6 8 9 10 11 12 13\n4 4 6 7 8\n8 4 5 6 7 0 1 2 3\n"
+      "CELL_TYPES 5\n12\n10\n13\n10\n12\n";
+  UnstructuredGrid g = read_vtk_legacy_from_memory(f, "ids.vtk");
+  CHECK(g.tet_file_cells == std::vector<uint32_t>{1, 3});
+  CHECK(g.hex_file_cells == std::vector<uint32_t>{0, 2, 4});
+  CHECK(g.hex_file_cell(1) == 2);
+  CHECK(g.tet_file_cell(1) == 3);
+  ValidationReport const by_index = validate(g.hex_mesh());
+  REQUIRE(by_index.inverted.count == 2);
+  CHECK(by_index.inverted.first == 1);  // the view's index
+  ValidationReport const by_file = validate(g.hex_mesh(), view(g.hex_file_cells));
+  CHECK(by_file.inverted.count == 2);
+  CHECK(by_file.inverted.first == 2);  // the file's id, as ParaView shows it
+  CHECK_THAT(by_file.message(), Catch::Contains("first cell 2)"));
+  CHECK_THROWS_AS(validate(g.hex_mesh(), view(g.tet_file_cells)), InvalidArgument);  // one id per cell
+  std::vector<uint64_t> const global = {100, 7, 5};  // a rank's global ids, say: the smallest is named
+  CHECK(validate(g.hex_mesh(), view(global)).inverted.first == 5);
+  // Folded: the smallest file id among the findings, wherever it sits.
+  CHECK(g.fold_tets_into_hexes() == 2);
+  CHECK(g.hex_file_cells == std::vector<uint32_t>{0, 2, 4, 1, 3});
+  CHECK(validate(g.hex_mesh(), view(g.hex_file_cells)).inverted.first == 2);
+  // A file of one cell type keeps none: each index is its id.
+  std::string const hexes_only =
+      "# vtk DataFile Version 2.0\nh\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 8 float\n"
+      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\nCELLS 1 9\n8 0 1 2 3 4 5 6 7\nCELL_TYPES 1\n12\n";
+  UnstructuredGrid const h = read_vtk_legacy_from_memory(hexes_only, "h.vtk");
+  CHECK(h.hex_file_cells.empty());
+  CHECK(h.hex_file_cell(0) == 0);
 }
 
 TEST_CASE("cell_to_point averages the cells around each vertex", "[io]") {

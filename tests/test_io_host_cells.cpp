@@ -79,6 +79,9 @@ TEST_CASE("split_vtk_cells splits mixed cells as the legacy reader splits the sa
   CHECK(s.hexes.size() == 4 * 8);
   CHECK(s.tet_cells == std::vector<uint64_t>{0, 5});
   CHECK(s.hex_cells == std::vector<uint64_t>{1, 3, 4, 6});
+  // The reader names the same cells by their file ids.
+  CHECK(std::vector<uint64_t>(g.tet_file_cells.begin(), g.tet_file_cells.end()) == s.tet_cells);
+  CHECK(std::vector<uint64_t>(g.hex_file_cells.begin(), g.hex_file_cells.end()) == s.hex_cells);
   CHECK(s.report.cells_read == g.report.cells_read);
   CHECK(s.report.skipped_count() == 1);
   CHECK(s.report.reduced_to_linear == 2);  // the quadratic tetrahedron and the voxel

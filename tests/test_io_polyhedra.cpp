@@ -63,6 +63,9 @@ TEST_CASE("polyhedra in a .vtu split into pyramids and tetrahedra around their c
   REQUIRE(id);
   CHECK(id->hex_values == std::vector<float>{1, 1, 1, 1, 1, 1, 2, 2, 2, 2, 2, 2, 2});
   CHECK(id->tet_values == std::vector<float>(2, 2.f));
+  // Each piece has its polyhedron's file cell id (the file holds only the two).
+  CHECK(g.hex_file_cells == std::vector<uint32_t>{0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 1});
+  CHECK(g.tet_file_cells == std::vector<uint32_t>{1, 1});
   // Every pyramid's apex is its centre; every cell is positively oriented.
   for (uint64_t c = 0; c < g.hex_count(); ++c)
     for (int k = 4; k < 8; ++k) CHECK(g.hexes[8 * c + uint64_t(k)] == (c < 6 ? 18u : 19u));

@@ -285,6 +285,7 @@ TEST_CASE("cells vtkGhostType marks as duplicates (GhostLevel > 0) are dropped, 
   UnstructuredGrid const g = read_mesh(path);
   CHECK(g.tet_count() == 2);
   CHECK(g.tets == std::vector<uint32_t>{0, 1, 2, 3, 5, 6, 7, 8});
+  CHECK(g.tet_file_cells == std::vector<uint32_t>{0, 1});  // the ghost was cell 2 of the .pvtu's 3
   CHECK(g.cell_arrays.empty());  // the .pvtu declares none
   CHECK(std::count(g.report.arrays_ignored.begin(), g.report.arrays_ignored.end(),
                    "cell 'vtkGhostType' flags 1 duplicate ghost cells: dropped, another piece owns them") == 1);
@@ -318,6 +319,9 @@ TEST_CASE("merge_grids appends vertices and cells and keeps only the arrays ever
   CHECK(m.vertex_count() == 16);
   CHECK(m.tets == std::vector<uint32_t>{0, 1, 2, 3, 12, 13, 14, 15});
   CHECK(m.hexes == std::vector<uint32_t>{4, 5, 6, 7, 8, 9, 10, 11});
+  // Tets and a hexahedron: each cell's id in the merged file numbering.
+  CHECK(m.tet_file_cells == std::vector<uint32_t>{0, 2});
+  CHECK(m.hex_file_cells == std::vector<uint32_t>{1});
   CHECK(m.xyz[3 * 4] == 10.f);
   REQUIRE(m.point_arrays.size() == 2);
   CHECK(m.point_arrays[0].name == "T");  // the first grid's order

@@ -104,6 +104,7 @@ void run(Bytes& in, uint8_t flags, uint8_t tuning, uint64_t nv, uint64_t nc, flo
 
   cellray::ValidationReport const rep = cellray::validate(mesh);
   uint64_t bad_cells = 0, bad_positions = 0, unused_bad_positions = 0, bad_values = 0;  // brute-force oracle
+  uint64_t last_bad_cell = 0;
   std::vector<bool> used(nv, false);
   for (uint64_t c = 0; c < nc; ++c) {
     bool bad = false;
@@ -113,6 +114,7 @@ void run(Bytes& in, uint8_t flags, uint8_t tuning, uint64_t nv, uint64_t nc, flo
       if (v < nv) used[v] = true;
     }
     bad_cells += bad;
+    if (bad) last_bad_cell = c;
   }
   for (uint64_t v = 0; v < nv; ++v) {
     bool const finite = std::isfinite(xyz[3 * v]) && std::isfinite(xyz[3 * v + 1]) && std::isfinite(xyz[3 * v + 2]);
@@ -137,6 +139,20 @@ void run(Bytes& in, uint8_t flags, uint8_t tuning, uint64_t nv, uint64_t nc, flo
           "a cell counted under two shape findings");
   require(N == 8 || !rep.distorted, "a tetrahedron reported distorted");
   (void)rep.message();
+  // Named by cell ids given in reverse (a reader's file ids, a rank's global
+  // ones): the same counts, and "first" the smallest id among the findings.
+  std::vector<uint64_t> reversed(nc);
+  for (uint64_t c = 0; c < nc; ++c) reversed[c] = 1000 + (nc - 1 - c);
+  cellray::ValidationReport const named = cellray::validate(mesh, cellray::view(reversed));
+  auto same = [&](cellray::Finding const& a, cellray::Finding const& b) {
+    return a.count == b.count && (!a || (b.first >= 1000 && b.first < 1000 + nc));
+  };
+  require(same(rep.bad_index, named.bad_index) && same(rep.zero_volume, named.zero_volume) &&
+              same(rep.inverted, named.inverted) && same(rep.distorted, named.distorted),
+          "findings named by cell ids differ from those named by index");
+  require(!bad_cells || named.bad_index.first == 1000 + (nc - 1 - last_bad_cell),
+          "the first bad cell by id is not the last by index");
+  require(named.nonfinite_position.first == rep.nonfinite_position.first, "vertex ids changed with cell ids");
 
   cellray::BuildOptions bo;
   bo.isa = isa;

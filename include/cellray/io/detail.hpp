@@ -623,9 +623,30 @@ void drop_collapsed_cells(uint64_t ncells, NumArray const& types, SpanFn span, R
   grid.hexes = std::move(hexes);
 }
 
+/// The file cell ids of the tets and hexahedra kept (kinds 0 and 1) into
+/// `grid` (UnstructuredGrid::tet_file_cells), unless the cells are of one
+/// kind with none skipped (each one's index is its id) or too many for
+/// 32-bit ids. Polyhedra (kind 3) count as out of order: their pieces come
+/// after the other cells (io/polyhedra.hpp adds their ids).
+inline void record_file_cells(CellKinds const& kinds, UnstructuredGrid& grid) {
+  uint64_t const n = kinds.size();
+  if (n == 0 || n > std::numeric_limits<uint32_t>::max()) return;
+  uint8_t const k0 = kinds[0];
+  if ((k0 == 0 || k0 == 1) && std::all_of(kinds.begin(), kinds.end(), [k0](uint8_t k) { return k == k0; })) return;
+  grid.tet_file_cells.clear();
+  grid.hex_file_cells.clear();
+  grid.tet_file_cells.reserve(grid.tet_count());
+  grid.hex_file_cells.reserve(grid.hex_count());
+  for (uint64_t c = 0; c < n; ++c) {
+    if (kinds[c] == 0) grid.tet_file_cells.push_back(uint32_t(c));
+    else if (kinds[c] == 1) grid.hex_file_cells.push_back(uint32_t(c));
+  }
+}
+
 /// Polyhedra (VTK 42) are kind 3 when the format gives their faces
 /// (`polyhedra`: VTU, legacy VTK), else unsupported; their ids are not
-/// checked here (io/polyhedra.hpp checks their faces).
+/// checked here (io/polyhedra.hpp checks their faces). Records the file
+/// cell ids (record_file_cells).
 template <class SpanFn>
 CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& conn, SpanFn span, uint64_t npoints,
                       ReadOptions const& opts, UnstructuredGrid& grid, CellLocator const& where,
@@ -707,6 +728,7 @@ CellKinds build_cells(uint64_t ncells, NumArray const& types, NumArray const& co
   tasks.first_hex.push_back(nhexes);
   fill_cells(ncells, types, conn, span, npoints, grid, where, kinds, tasks);
   drop_collapsed_cells(ncells, types, span, opts, grid, where, kinds);
+  record_file_cells(kinds, grid);
   return kinds;
 }
 

@@ -182,6 +182,16 @@ struct UnstructuredGrid {
   std::vector<PointArray> point_arrays;
   std::vector<CellArray> cell_arrays;
   ReadReport report;
+  /// The file's cell id of each tetrahedron and hexahedron kept (its
+  /// position among the file's cells, as VTK and ParaView number them; for
+  /// gmsh, among its volume elements), so that messages can name the cell
+  /// a user looks up. Filled by the readers where it differs from the
+  /// cell's index in `tets` / `hexes`: a file mixing tetrahedra with other
+  /// cells, skipped cells, split polyhedra (each piece has its
+  /// polyhedron's id), tets folded into the hexahedra. Empty: the index is
+  /// the id (one cell type, nothing skipped), or there is no file (or more
+  /// than 2^32 - 1 cells). See tet_file_cell / hex_file_cell.
+  std::vector<uint32_t> tet_file_cells, hex_file_cells;
 
   /// Vertices (all of the file's points, used by a kept cell or not).
   uint64_t vertex_count() const noexcept { return xyz.size() / 3; }
@@ -191,6 +201,9 @@ struct UnstructuredGrid {
   uint64_t hex_count() const noexcept { return hexes.size() / 8; }
   /// True when the grid has no cell at all.
   bool empty() const noexcept { return tets.empty() && hexes.empty(); }
+  /// The file's cell id of tetrahedron / hexahedron `i` (tet_file_cells).
+  uint64_t tet_file_cell(uint64_t i) const noexcept { return i < tet_file_cells.size() ? tet_file_cells[i] : i; }
+  uint64_t hex_file_cell(uint64_t i) const noexcept { return i < hex_file_cells.size() ? hex_file_cells[i] : i; }
 
   /// The point array called `name`, or nullptr.
   PointArray const* point_array(std::string_view name) const noexcept {
@@ -266,10 +279,16 @@ struct UnstructuredGrid {
   /// values: a mixed mesh becomes one part, under one BVH, through whose
   /// face neighbours DVR can march across all its cell types. The field and
   /// the crossings are the tet's; the price is 16 more index bytes per tet
-  /// and the hexahedron kernels' cost for it. Returns how many were folded.
-  /// Views made before dangle.
+  /// and the hexahedron kernels' cost for it. The file cell ids follow
+  /// (hex_file_cells). Returns how many were folded. Views made before dangle.
   uint64_t fold_tets_into_hexes() {
     uint64_t const n = tet_count();
+    if (hexes.empty()) hex_file_cells = std::move(tet_file_cells);
+    else if (n && !tet_file_cells.empty() && !hex_file_cells.empty())
+      hex_file_cells.insert(hex_file_cells.end(), tet_file_cells.begin(), tet_file_cells.end());
+    else if (n) hex_file_cells.clear();  // no file ids to go on: the folded view's own indices
+    tet_file_cells.clear();
+    tet_file_cells.shrink_to_fit();
     hexes.reserve(hexes.size() + 8 * n);
     for (uint64_t c = 0; c < n; ++c)
       for (int k : tet_as_hex) hexes.push_back(tets[4 * c + uint64_t(k)]);

@@ -282,6 +282,20 @@ inline PolySplitError split_polyhedra(UnstructuredGrid& grid, NumArray const& fa
       }
     }
   });
+  // Each piece has its polyhedron's file cell id. build_cells recorded the
+  // ids of the other cells; a grid without them (over 2^32 - 1 cells) has none.
+  if (grid.tet_file_cells.size() == tet0 && grid.hex_file_cells.size() == hex0 &&
+      (npoly == 0 || polys[npoly - 1].cell <= std::numeric_limits<uint32_t>::max())) {
+    grid.tet_file_cells.reserve(tet_at[npoly]);
+    grid.hex_file_cells.reserve(hex_at[npoly]);
+    for (uint64_t k = 0; k < npoly; ++k) {
+      grid.tet_file_cells.insert(grid.tet_file_cells.end(), tet_at[k + 1] - tet_at[k], uint32_t(polys[k].cell));
+      grid.hex_file_cells.insert(grid.hex_file_cells.end(), hex_at[k + 1] - hex_at[k], uint32_t(polys[k].cell));
+    }
+  } else {
+    grid.tet_file_cells.clear();
+    grid.hex_file_cells.clear();
+  }
   grid.report.polyhedron_tets += new_tets;
   grid.report.polyhedron_pyramids += new_hexes;
   grid.report.polyhedra_split = npoly;

@@ -102,6 +102,16 @@ inline uint64_t drop_ghost_cells(UnstructuredGrid& g) {
       }
     v.resize(o * per);
   };
+  // The cells kept keep their file cell ids: spelled out where each was its index.
+  auto spell_out = [](std::vector<uint32_t>& ids, uint64_t n) {
+    if (!ids.empty() || n > std::numeric_limits<uint32_t>::max()) return;
+    ids.resize(n);
+    for (uint64_t i = 0; i < n; ++i) ids[i] = uint32_t(i);
+  };
+  spell_out(g.tet_file_cells, g.tet_count());
+  spell_out(g.hex_file_cells, g.hex_count());
+  if (g.tet_file_cells.size() == g.tet_count()) keep(g.tet_file_cells, drop_tet, 1);
+  if (g.hex_file_cells.size() == g.hex_count()) keep(g.hex_file_cells, drop_hex, 1);
   keep(g.tets, drop_tet, 4);
   keep(g.hexes, drop_hex, 8);
   for (auto& a : g.cell_arrays) {
@@ -205,13 +215,27 @@ inline UnstructuredGrid read_pvtu_piece(PvtuIndex const& index, size_t i, ReadOp
 /// per piece, stay separate vertices. The renderer treats piece borders as
 /// ordinary interior faces for everything but face-neighbour marching, which
 /// re-locates the ray there. Each input is freed once appended: peak memory
-/// is about the inputs plus the result.
+/// is about the inputs plus the result. File cell ids (tet_file_cells)
+/// number the cells of grid k after those of the grids before it (the
+/// cells of its file: ReadReport::cells_read), as ParaView numbers the
+/// cells of a .pvtu.
 /// @throws IoError when the merged grid would have more than 2^32-1 vertices.
 inline UnstructuredGrid merge_grids(std::vector<UnstructuredGrid> grids) {
   UnstructuredGrid out;
   if (grids.empty()) return out;
-  uint64_t nv = 0, nt = 0, nh = 0;
-  for (auto const& g : grids) nv += g.vertex_count(), nt += g.tet_count(), nh += g.hex_count();
+  // A grid's file cells: those its reader counted, else (no reader) its own.
+  auto file_cells = [](UnstructuredGrid const& g) {
+    uint64_t n = 0;
+    for (auto const& [type, count] : g.report.cells_read) n += count;
+    return n ? n : g.tet_count() + g.hex_count();
+  };
+  uint64_t nv = 0, nt = 0, nh = 0, nfile = 0;
+  bool ids_differ = false;  // from the cells' indices in the merged grid
+  for (auto const& g : grids) {
+    nv += g.vertex_count(), nt += g.tet_count(), nh += g.hex_count(), nfile += file_cells(g);
+    ids_differ = ids_differ || !g.tet_file_cells.empty() || !g.hex_file_cells.empty();
+  }
+  ids_differ = (ids_differ || (nt && nh)) && nfile <= std::numeric_limits<uint32_t>::max();
   if (!io::point_count_fits(nv))
     throw IoError(grids[0].report.file + " and " + std::to_string(grids.size() - 1) + " more: merged, they hold " +
                   std::to_string(nv) + " vertices; cellray uses 32-bit vertex ids (at most 4294967295)");
@@ -269,7 +293,14 @@ inline UnstructuredGrid merge_grids(std::vector<UnstructuredGrid> grids) {
   }
   std::set<std::string> formats, ignored_seen, dropped_seen;
   std::vector<std::string> dropped;
+  uint64_t cell_base = 0;
+  if (ids_differ) out.tet_file_cells.reserve(nt), out.hex_file_cells.reserve(nh);
   for (auto& g : grids) {
+    if (ids_differ) {
+      for (uint64_t i = 0; i < g.tet_count(); ++i) out.tet_file_cells.push_back(uint32_t(cell_base + g.tet_file_cell(i)));
+      for (uint64_t i = 0; i < g.hex_count(); ++i) out.hex_file_cells.push_back(uint32_t(cell_base + g.hex_file_cell(i)));
+      cell_base += file_cells(g);
+    }
     uint64_t const base = out.vertex_count();
     out.xyz.insert(out.xyz.end(), g.xyz.begin(), g.xyz.end());
     for (uint32_t v : g.tets) out.tets.push_back(uint32_t(base + v));

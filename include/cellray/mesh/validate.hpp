@@ -21,6 +21,7 @@
 #include <ostream>
 #include <sstream>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -35,7 +36,7 @@ namespace cellray {
 /// A count of offending items and the smallest id among them (or none).
 struct Finding {
   uint64_t count = 0;
-  uint64_t first = std::numeric_limits<uint64_t>::max();  ///< cell or vertex id
+  uint64_t first = std::numeric_limits<uint64_t>::max();  ///< vertex id, or cell id (validate's `cell_ids`)
 
   void add(uint64_t id) {
     ++count;
@@ -238,7 +239,18 @@ inline int corner_orientation(glm::dvec3 const& a, glm::dvec3 const& b, glm::dve
 /// a negative volume, "distorted" a negative Jacobian at some corner (VTK
 /// corner edge order) with a positive volume, "zero volume" that every
 /// corner is flat.
-template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
+///
+/// `cell_ids`, when given (one per cell), are the ids findings name instead
+/// of the cells' indices in the view, and "first" is the smallest of them:
+/// a file's cell ids (io/grid.hpp's UnstructuredGrid::hex_file_cells, for a
+/// view whose cells a reader reordered), a host's (split_vtk_cells'
+/// SplitCells::hex_cells) or a rank's global ones.
+/// @throws InvalidArgument when `cell_ids` is neither empty nor one per cell.
+template <int N, class Id> ValidationReport validate(CellMesh<N> const& mesh, Span<Id> cell_ids) {
+  static_assert(std::is_integral_v<Id>, "cell ids are integers");
+  if (!cell_ids.empty() && cell_ids.size != mesh.cell_count())
+    throw InvalidArgument("validate: " + std::to_string(cell_ids.size) + " cell ids for " +
+                          std::to_string(mesh.cell_count()) + " cells");
   ValidationReport rep;
   rep.cell_type = CellMesh<N>::cell_type;
   rep.cells = mesh.cell_count();
@@ -296,6 +308,8 @@ template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
     Finding index, flat, inverted, distorted;
     KindCounts kinds, flat_kinds, inverted_kinds, distorted_kinds;
   };
+  bool const named = !cell_ids.empty();
+  auto id = [&](uint64_t c) { return named ? uint64_t(cell_ids[c]) : c; };  // read only for findings
   auto cpart = tbb::parallel_reduce(
       tbb::blocked_range<uint64_t>(0, mesh.cell_count(), 1 << 12), CellPart{},
       [&](tbb::blocked_range<uint64_t> const& r, CellPart acc) {
@@ -307,15 +321,15 @@ template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
             bad = bad || v[k] >= nv;
           }
           if (bad) {
-            acc.index.add(c);
+            acc.index.add(id(c));
             continue;
           }
           glm::dvec3 p[N];
           for (int k = 0; k < N; ++k) p[k] = detail::dpos(xyz, v[k]);
           if constexpr (N == 4) {
             int const o = detail::corner_orientation(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
-            if (o == 0) acc.flat.add(c);
-            else if (o < 0) acc.inverted.add(c);
+            if (o == 0) acc.flat.add(id(c));
+            else if (o < 0) acc.inverted.add(id(c));
           } else {
             // Corner k's edges to its three neighbours, ordered so that a
             // regular VTK hexahedron gives positive determinants.
@@ -330,13 +344,13 @@ template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
             CollapsedKind const kind = collapsed_kind(v);
             acc.kinds.add(kind);
             if (all_flat) {
-              acc.flat.add(c), acc.flat_kinds.add(kind);
+              acc.flat.add(id(c)), acc.flat_kinds.add(kind);
             } else if (any_negative) {
               // Negative at a corner: inside out only if the volume is.
               if (detail::relative_hex_volume(p) < -detail::flat_tolerance)
-                acc.inverted.add(c), acc.inverted_kinds.add(kind);
+                acc.inverted.add(id(c)), acc.inverted_kinds.add(kind);
               else
-                acc.distorted.add(c), acc.distorted_kinds.add(kind);
+                acc.distorted.add(id(c)), acc.distorted_kinds.add(kind);
             }
           }
         }
@@ -359,6 +373,9 @@ template <int N> ValidationReport validate(CellMesh<N> const& mesh) {
   rep.inverted_kinds = cpart.inverted_kinds, rep.distorted_kinds = cpart.distorted_kinds;
   return rep;
 }
+
+/// validate() naming each cell by its index in the view.
+template <int N> ValidationReport validate(CellMesh<N> const& mesh) { return validate(mesh, Span<uint32_t>{}); }
 
 /// Throws InvalidMesh with the report's message unless `rep.ok()`.
 inline void require_valid(ValidationReport const& rep, char const* what = "mesh") {
