@@ -233,6 +233,9 @@ void check_common(UnstructuredGrid const& g) {
                                        1, 8, 2, 2, 5, 9, 6, 6,
                                        4, 5, 6, 7, 10, 10, 10, 10};  // the pyramid
   CHECK(g.hexes == hexes);
+  // Validation names cells by their element tags, which gmsh shows.
+  CHECK(g.tet_file_cells == std::vector<uint32_t>{3});
+  CHECK(g.hex_file_cells == std::vector<uint32_t>{7, 8, 9});
   // gmsh's prisms and pyramids are positive in gmsh: so must they be as VTK cells.
   ValidationReport const vh = validate(g.hex_mesh().with_array("T"));
   CHECK(!vh.inverted);
@@ -400,6 +403,8 @@ void check_same_grid(UnstructuredGrid const& a, UnstructuredGrid const& b) {
   CHECK(same_bits(a.xyz, b.xyz));
   CHECK(a.tets == b.tets);
   CHECK(a.hexes == b.hexes);
+  CHECK(a.tet_file_cells == b.tet_file_cells);
+  CHECK(a.hex_file_cells == b.hex_file_cells);
   REQUIRE(a.point_arrays.size() == b.point_arrays.size());
   for (size_t k = 0; k < a.point_arrays.size(); ++k) {
     CHECK(a.point_arrays[k].name == b.point_arrays[k].name);

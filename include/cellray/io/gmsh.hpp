@@ -129,6 +129,8 @@ class TagMap {
  public:
   void add(int64_t tag) { tags_.push_back(tag); }
   uint64_t size() const { return tags_.size(); }
+  /// The tag added `i`-th.
+  int64_t tag(uint64_t i) const { return tags_[i]; }
   /// Builds the lookup; returns the first repeated tag, or 0.
   int64_t finish() {
     int64_t max_tag = 0;
@@ -505,6 +507,25 @@ class GmshParser {
     expect_end("Nodes");
   }
 
+  /// The file cell ids (UnstructuredGrid::tet_file_cells) of a gmsh file
+  /// are its element tags, which gmsh shows, not positions; none when a
+  /// tag passes 2^32 - 1.
+  void name_cells_by_tag(CellKinds const& kinds, UnstructuredGrid& grid) const {
+    std::vector<int64_t> tag_of(kinds.size(), 0);
+    for (uint64_t e = 0; e < element_cell_.size(); ++e)
+      if (element_cell_[e] != TagMap::missing) tag_of[element_cell_[e]] = element_tags_.tag(e);
+    grid.tet_file_cells.clear();
+    grid.hex_file_cells.clear();
+    if (std::any_of(tag_of.begin(), tag_of.end(), [](int64_t t) { return t > int64_t(std::numeric_limits<uint32_t>::max()); }))
+      return;
+    grid.tet_file_cells.reserve(grid.tet_count());
+    grid.hex_file_cells.reserve(grid.hex_count());
+    for (uint64_t c = 0; c < kinds.size(); ++c) {
+      if (kinds[c] == 0) grid.tet_file_cells.push_back(uint32_t(tag_of[c]));
+      else if (kinds[c] == 1) grid.hex_file_cells.push_back(uint32_t(tag_of[c]));
+    }
+  }
+
   /// An element's tag and type: true when it is a volume cell, to be
   /// added by add_cell with its nodes; otherwise counted and passed over.
   bool begin_element(uint64_t at, int64_t tag, int64_t type, GmshElement& e) {
@@ -791,6 +812,7 @@ class GmshParser {
     CellKinds const kinds = build_cells(
         ncells, types, conn, [&offsets](uint64_t c) { return std::pair<uint64_t, uint64_t>(offsets[c], offsets[c + 1]); },
         npoints, opts_, grid, where);
+    name_cells_by_tag(kinds, grid);
     grid.report.reduced_to_linear += higher_order_;
     for (auto& d : point_data_)
       add_point_array(grid, std::move(d.name), point_values(NumArray::owning(d.values), d.ncomp, npoints), d.ncomp);

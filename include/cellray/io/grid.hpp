@@ -182,15 +182,15 @@ struct UnstructuredGrid {
   std::vector<PointArray> point_arrays;
   std::vector<CellArray> cell_arrays;
   ReadReport report;
-  /// The file's cell id of each tetrahedron and hexahedron kept (its
-  /// position among the file's cells, as VTK and ParaView number them; for
-  /// gmsh, among its volume elements), so that messages can name the cell
-  /// a user looks up. Filled by the readers where it differs from the
-  /// cell's index in `tets` / `hexes`: a file mixing tetrahedra with other
-  /// cells, skipped cells, split polyhedra (each piece has its
-  /// polyhedron's id), tets folded into the hexahedra. Empty: the index is
-  /// the id (one cell type, nothing skipped), or there is no file (or more
-  /// than 2^32 - 1 cells). See tet_file_cell / hex_file_cell.
+  /// The file's cell id of each tetrahedron and hexahedron kept, so that
+  /// messages can name the cell a user looks up: its position among the
+  /// file's cells, as VTK and ParaView number them, or a gmsh file's
+  /// element tag. Filled by the readers where it differs from the cell's
+  /// index in `tets` / `hexes`: a file mixing tetrahedra with other cells,
+  /// skipped cells, split polyhedra (each piece has its polyhedron's id),
+  /// tets folded into the hexahedra, gmsh files. Empty: the index is the
+  /// id (one cell type, nothing skipped), or there is no file (or an id
+  /// past 2^32 - 1). See tet_file_cell / hex_file_cell.
   std::vector<uint32_t> tet_file_cells, hex_file_cells;
 
   /// Vertices (all of the file's points, used by a kept cell or not).
