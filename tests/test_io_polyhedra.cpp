@@ -109,6 +109,14 @@ TEST_CASE("the snappy flange's polyhedra split into the cells foamToVTK -poly-de
   CHECK(dh.inverted.count == 0);
   CHECK(dh.distorted.count > 0);
   CHECK(double(hr.distorted.count) <= 1.01 * double(dh.distorted.count));
+  // Named by the file's cell ids, both files name the same first distorted
+  // cell (foamToVTK keeps OpenFOAM's cell order and appends the polyhedra's
+  // pieces); the hexahedral part's index names another one.
+  ValidationReport const hr_file = validate(g.hex_mesh().with_array("T"), view(g.hex_file_cells));
+  ValidationReport const dh_file = validate(d.hex_mesh().with_array("T"), view(d.hex_file_cells));
+  CHECK(hr_file.distorted.count == hr.distorted.count);
+  CHECK(hr_file.distorted.first == dh_file.distorted.first);
+  CHECK(hr_file.distorted.first != hr.distorted.first);
 }
 
 TEST_CASE("a polyhedron whose faces do not close, or name a missing point, is an error naming it", "[io][polyhedra]") {
