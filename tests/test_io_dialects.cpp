@@ -527,8 +527,8 @@ TEST_CASE("fold_tets_into_hexes stores each tet as a collapsed hexahedron, cell 
 }
 
 TEST_CASE("validation names the file's cell ids where the reader reordered the cells", "[io]") {
-  // Hexahedron, tet, a wedge turned inside out (its top triangle below its
-  // bottom), tet, a hexahedron turned inside out. The readers keep the tets
+  // Hexahedron, tet, a wedge turned inside out (its first triangle's normal
+  // points at the second), tet, a hexahedron turned inside out. The readers keep the tets
   // and hexahedra apart: the hexahedral part's cells 1 and 2 are the
   // file's cells 2 and 4, and the folded tets come after them.
   std::string const f =
