@@ -1222,12 +1222,17 @@ inline CellIsoHit<A> iso_root_hex_neubauer(RayBatch<A> const& ray, HexClip<A> co
   vfloat<A> const dt = clip.t_out - clip.t_in;
   Vec3<A> const o = ray.origin(), d = ray.dir();
   // Paper Fig. 5 interpolates at points on the ray: invert each one (warm
-  // start on the parametric segment, 4 Newton iterations).
+  // start on the parametric segment, 4 Newton iterations), but for
+  // parallelepipeds, whose parametric segment is the ray.
   return isa_detail::neubauer_crossings<A>(clip, clip.hit && !has_nan_value(c), isovalues, count, steps,
                                        [&](vfloat<A> const& lam, vmask<A> const& lanes) {
-                                         vmask<A> conv;
-                                         Vec3<A> const u = isa_detail::invert_on_ray(c, o + (clip.t_in + lam * dt) * d,
-                                                                                     clip.u_in + lam * du, lanes, 4, conv);
+                                         Vec3<A> u = clip.u_in + lam * du;
+                                         vmask<A> const general = lanes && !clip.affine;
+                                         if (simd::any(general)) {
+                                           vmask<A> conv;
+                                           u = isa_detail::invert_on_ray(c, o + (clip.t_in + lam * dt) * d, u, general,
+                                                                         4, conv);
+                                         }
                                          return isa_detail::trilerp<A>(c.s, u);
                                        });
 }
@@ -1326,9 +1331,13 @@ template <class A> struct CellOps<A, 8> {
     if (param && simd::any(h.hit)) {
       vfloat<A> const dt = k.t_out - k.t_in;
       vfloat<A> const lam = simd::select(h.hit, (h.t - k.t_in) / dt, vfloat<A>(0.f));
-      vmask<A> conv;
-      Vec3<A> const u = isa_detail::invert_on_ray(c, r.origin() + simd::select(h.hit, h.t, k.t_in) * r.dir(),
-                                                  k.u_in + lam * (k.u_out - k.u_in), h.hit, hex_newton_cap, conv);
+      Vec3<A> u = k.u_in + lam * (k.u_out - k.u_in);  // a parallelepiped's point (as above)
+      vmask<A> const general = h.hit && !k.affine;
+      if (simd::any(general)) {
+        vmask<A> conv;
+        u = isa_detail::invert_on_ray(c, r.origin() + simd::select(h.hit, h.t, k.t_in) * r.dir(), u, general,
+                                      hex_newton_cap, conv);
+      }
       *param = select<A>(h.hit, u, *param);
     }
     return h;
@@ -1361,9 +1370,17 @@ template <class A> struct CellOps<A, 8> {
     if (CELLRAY_UNLIKELY(isa_detail::top_collapsed(c, lanes))) return pyramid_field_on_ray(ray, c, k, lanes, lam, u);
     vfloat<A> const l(lam);
     Vec3<A> const guess = k.u_in + l * (k.u_out - k.u_in);
-    vmask<A> conv;
-    u = isa_detail::invert_hex(c, ray.origin() + (k.t_in + l * (k.t_out - k.t_in)) * ray.dir(), guess, lanes, 6, conv);
-    u = select<A>(conv || isa_detail::in_unit_cube<A>(u, 0.05f), u, guess);
+    // Parallelepipeds (Clip::affine): the parametric segment is the ray, as
+    // in iso_root_hex, so the guess is the point; Newton only for the rest.
+    vmask<A> const general = lanes && !k.affine;
+    if (simd::any(general)) {
+      vmask<A> conv;
+      u = isa_detail::invert_hex(c, ray.origin() + (k.t_in + l * (k.t_out - k.t_in)) * ray.dir(), guess, general, 6,
+                                 conv);
+      u = select<A>(conv || isa_detail::in_unit_cube<A>(u, 0.05f), u, guess);
+    } else {
+      u = guess;
+    }
     return isa_detail::trilerp<A>(c.s, u);
   }
 
