@@ -26,7 +26,7 @@ namespace impl {
 /// Transfer function as a lookup table over [lo, hi] with the opacity
 /// already corrected for the sample spacing: a' = 1 - (1 - a)^(step / unit).
 template <class A> struct TfTable {
-  float const* r;
+  float const* r;  ///< PairTable::data()
   float const* g;
   float const* b;
   float const* a;
@@ -41,11 +41,13 @@ template <class A> struct TfTable {
                                   vfloat<A>(float(size - 1) - 1e-3f));
     vint<A> const i = xsimd_trunc<A>(x);
     vfloat<A> const f = x - to_float<A>(i);
-    vint<A> const j = i + vint<A>(1);
-    cr = simd::gather(r, i) + f * (simd::gather(r, j) - simd::gather(r, i));
-    cg = simd::gather(g, i) + f * (simd::gather(g, j) - simd::gather(g, i));
-    cb = simd::gather(b, i) + f * (simd::gather(b, j) - simd::gather(b, i));
-    ca = simd::select(ok, simd::gather(a, i) + f * (simd::gather(a, j) - simd::gather(a, i)), vfloat<A>(0.f));
+    auto lerp = [&](float const* t) {
+      vfloat<A> e0, e1;
+      simd::gather_pairs(t, i, e0, e1);
+      return e0 + f * (e1 - e0);
+    };
+    cr = lerp(r), cg = lerp(g), cb = lerp(b);
+    ca = simd::select(ok, lerp(a), vfloat<A>(0.f));
   }
 
   template <class B> static vint<B> xsimd_trunc(vfloat<B> const& x) {
@@ -106,10 +108,10 @@ template <class A> inline PieceColor<A> piece_color(PreparedTf const& ptf, vfloa
   vfloat<A> const x = simd::min(simd::max((simd::select(ok, v, lo) - lo) * scale, zero), last);
   vint<A> const i = TfTable<A>::template xsimd_trunc<A>(x);
   vfloat<A> const f = x - TfTable<A>::template to_float<A>(i);
-  vint<A> const i1 = i + vint<A>(1);
-  auto lerp = [&](std::vector<float> const& t) {
-    vfloat<A> const a = simd::gather(t.data(), i);
-    return a + f * (simd::gather(t.data(), i1) - a);
+  auto lerp = [&](PairTable const& t) {
+    vfloat<A> e0, e1;
+    simd::gather_pairs(t.data(), i, e0, e1);
+    return e0 + f * (e1 - e0);
   };
   vfloat<A> const lt = simd::select(ok, simd::min(lerp(ptf.log_transmittance), zero), zero);
   return {lerp(ptf.r), lerp(ptf.g), lerp(ptf.b), one - vexp<A>(lt * d)};
@@ -184,7 +186,7 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
   PreparedTf const& ptf = *s.tf;
   auto depth_lane = simd::to_array<A>(depth);
   float const last_entry = float(ptf.r.size() - 1) - 1e-3f;
-  auto lerp_entry = [](std::vector<float> const& t, int i, float f) { return t[size_t(i)] + f * (t[size_t(i) + 1] - t[size_t(i)]); };
+  auto lerp_entry = [](PairTable const& t, int i, float f) { return t.lerp(i, f); };
   bool const shade = p.shading.enabled;
   // The first window is group_size steps long; each further one twice the
   // last: a ray still going after a window is likely crossing transparent or

@@ -179,14 +179,15 @@ inline PreparedTf tf_table(TransferFunction const& tf, float step) {
   float const hi = tf.values.size() > 1 ? tf.values.back() : t.lo + 1.f;
   // In double: hi - lo overflows float for values near +-3e38.
   t.scale = float(double(size - 1) / (double(hi) - double(t.lo)));
-  t.r.resize(size), t.g.resize(size), t.b.resize(size), t.a.resize(size), t.log_transmittance.resize(size);
+  std::vector<float> r(size), g(size), b(size), a(size), lt(size);
   for (int i = 0; i < size; ++i) {
     glm::vec4 const c = tf(float(double(t.lo) + double(i) / double(t.scale)));
-    t.r[size_t(i)] = c.r, t.g[size_t(i)] = c.g, t.b[size_t(i)] = c.b;
+    r[size_t(i)] = c.r, g[size_t(i)] = c.g, b[size_t(i)] = c.b;
     float const keep = 1.f - std::min(c.a, 0.999999f);  // fraction of light let through per unit distance
-    t.a[size_t(i)] = 1.f - std::pow(keep, step / tf.unit_distance);
-    t.log_transmittance[size_t(i)] = std::log(keep) / tf.unit_distance;
+    a[size_t(i)] = 1.f - std::pow(keep, step / tf.unit_distance);
+    lt[size_t(i)] = std::log(keep) / tf.unit_distance;
   }
+  t.r = PairTable(r), t.g = PairTable(g), t.b = PairTable(b), t.a = PairTable(a), t.log_transmittance = PairTable(lt);
   return t;
 }
 

@@ -3,6 +3,7 @@
 // tree views, the scene bounds, the transfer-function table. Plain data,
 // shared by the baseline side and the ISA units.
 
+#include <algorithm>
 #include <cstdint>
 #include <variant>
 #include <vector>
@@ -46,13 +47,30 @@ struct PreparedPart {
   template <int N> PartCells<N> const* cells_of() const { return std::get_if<PartCells<N>>(&cells); }
 };
 
+/// A lookup table read linearly between entries: entry i stored beside
+/// entry i + 1 (the last beside itself), so a lookup is one 64-bit gather a
+/// lane (simd::gather_pairs). Twice the floats of a plain table.
+struct PairTable {
+  std::vector<float> pairs;  ///< 2 * size(): entry i, entry min(i + 1, size - 1)
+  explicit PairTable(std::vector<float> const& t = {}) : pairs(2 * t.size()) {
+    for (size_t i = 0; i < t.size(); ++i) pairs[2 * i] = t[i], pairs[2 * i + 1] = t[std::min(i + 1, t.size() - 1)];
+  }
+  size_t size() const { return pairs.size() / 2; }
+  float const* data() const { return pairs.data(); }
+  /// Entry i + f of the way to entry i + 1 (0 <= f < 1).
+  float lerp(int i, float f) const {
+    float const a = pairs[2 * size_t(i)];
+    return a + f * (pairs[2 * size_t(i) + 1] - a);
+  }
+};
+
 /// Transfer function sampled into a table with the opacity corrected for the
 /// sample spacing (DVR samples mode), plus its raw form for cell segments.
 struct PreparedTf {
-  std::vector<float> r, g, b, a;  ///< `size` entries over [lo, lo + (size - 1) / scale]
+  PairTable r, g, b, a;  ///< `size` entries over [lo, lo + (size - 1) / scale]
   /// Per entry ln(1 - opacity) / unit distance (<= 0): a piece of length d
   /// has opacity 1 - exp(d * this) (cell segments: pieces of any length).
-  std::vector<float> log_transmittance;
+  PairTable log_transmittance;
   float lo = 0.f, scale = 1.f;
   TransferFunction const* tf = nullptr;
 };

@@ -242,6 +242,43 @@ template <class A> inline xsimd::batch<int32_t, A> gather(int32_t const* base, x
   }
 }
 
+/// pairs[2 idx[i]] into `first` and pairs[2 idx[i] + 1] into `second`, per
+/// lane: one 64-bit gather a lane where the ISA has them (a linear table
+/// lookup reads entries i and i + 1 stored side by side; two 32-bit gathers
+/// cost about twice as much, docs/performance.md). Every index must be
+/// valid, as for gather; `pairs` 8-byte aligned.
+inline void gather_pairs(float const* pairs, int32_t idx, float& first, float& second) noexcept {
+  first = pairs[2 * idx], second = pairs[2 * idx + 1];
+}
+template <class A>
+inline void gather_pairs(float const* pairs, xsimd::batch<int32_t, A> const& idx, xsimd::batch<float, A>& first,
+                         xsimd::batch<float, A>& second) noexcept {
+  auto const* base = reinterpret_cast<double const*>(pairs);
+  if constexpr (is_avx512<A>) {
+    __m512i const i = idx;
+    __m512 const lo = _mm512_castpd_ps(_mm512_i32gather_pd(_mm512_castsi512_si256(i), base, 8));
+    __m512 const hi = _mm512_castpd_ps(_mm512_i32gather_pd(_mm512_extracti64x4_epi64(i, 1), base, 8));
+    __m512i const even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+    first = _mm512_permutex2var_ps(lo, even, hi);
+    second = _mm512_permutex2var_ps(lo, _mm512_add_epi32(even, _mm512_set1_epi32(1)), hi);
+  } else if constexpr (is_avx2<A>) {
+    __m256i const i = idx;
+    // lo = a0 b0 a1 b1 | a2 b2 a3 b3, hi = a4 b4 a5 b5 | a6 b6 a7 b7
+    __m256 const lo = _mm256_castpd_ps(_mm256_i32gather_pd(base, _mm256_castsi256_si128(i), 8));
+    __m256 const hi = _mm256_castpd_ps(_mm256_i32gather_pd(base, _mm256_extracti128_si256(i, 1), 8));
+    // a0 a1 a4 a5 | a2 a3 a6 a7, then the middle 64-bit halves swapped
+    __m256 const a = _mm256_shuffle_ps(lo, hi, _MM_SHUFFLE(2, 0, 2, 0));
+    __m256 const b = _mm256_shuffle_ps(lo, hi, _MM_SHUFFLE(3, 1, 3, 1));
+    first = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(a), _MM_SHUFFLE(3, 1, 2, 0)));
+    second = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(b), _MM_SHUFFLE(3, 1, 2, 0)));
+  } else {
+    alignas(16) int32_t i[4];
+    idx.store_aligned(i);
+    first = _mm_setr_ps(pairs[2 * i[0]], pairs[2 * i[1]], pairs[2 * i[2]], pairs[2 * i[3]]);
+    second = _mm_setr_ps(pairs[2 * i[0] + 1], pairs[2 * i[1] + 1], pairs[2 * i[2] + 1], pairs[2 * i[3] + 1]);
+  }
+}
+
 inline bool isnan(float x) noexcept { return x != x; }
 // Not `x != x`: xsimd compiles != to an ordered compare on AVX (false for NaN).
 template <class A> inline xsimd::batch_bool<float, A> isnan(xsimd::batch<float, A> const& x) noexcept { return !(x == x); }

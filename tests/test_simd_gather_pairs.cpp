@@ -1,0 +1,49 @@
+// The transfer-function tables' pair gather (simd::gather_pairs, PairTable
+// in render/render_common.hpp): every ISA's lanes read their own entry and
+// the next, in lane order, as the linear lookups of DVR need.
+
+#include <catch2/catch.hpp>
+
+#include <cstdint>
+#include <vector>
+
+#include <cellray/render/render_common.hpp>
+
+#include "support/gather_probe.hpp"
+#include "support/test_isa.hpp"
+
+// One namespace per file: a stage's files compile as one unity TU
+// (tests/CMakeLists.txt), where file-local names must not meet.
+namespace test_simd_gather_pairs {
+
+using namespace cellray;
+
+TEST_CASE("gather_pairs: each lane reads its table entry and the next, in lane order", "[simd][isa]") {
+  constexpr int size = 4096;
+  std::vector<float> t(size);
+  for (int i = 0; i < size; ++i) t[size_t(i)] = 0.25f + 0.5f * float(i);  // distinct, exact
+  PairTable const table(t);
+  REQUIRE(table.size() == size_t(size));
+  // Every lane position sees the first and last entries, neighbours, equal
+  // indices and far-apart ones (a lane permutation or a half swapped shows).
+  std::vector<int32_t> idx;
+  for (int k = 0; k < 64 * 16; ++k) {
+    int32_t const pattern[4] = {k % size, size - 1 - (37 * k) % size, (k / 16) * 16 % size, (size - 1) * (k % 2)};
+    idx.push_back(pattern[(k / 16) % 4]);
+  }
+  std::vector<float> first(idx.size()), second(idx.size());
+  dispatch<test::GatherPairsProbe>(test::isa(), table.data(), idx.data(), int(idx.size()), first.data(),
+                                   second.data());
+  int wrong = 0;
+  for (size_t k = 0; k < idx.size(); ++k) {
+    int32_t const i = idx[k];
+    float const next = t[size_t(i + 1 < size ? i + 1 : i)];  // the last entry pairs with itself
+    wrong += first[k] != t[size_t(i)] || second[k] != next;
+  }
+  CHECK(wrong == 0);
+  // The scalar lookup reads the same pairs: entry i, f of the way to i + 1.
+  CHECK(table.lerp(10, 0.5f) == 0.25f + 0.5f * 10.5f);
+  CHECK(table.lerp(size - 1, 0.75f) == t[size - 1]);
+}
+
+}  // namespace test_simd_gather_pairs
