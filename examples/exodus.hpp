@@ -105,6 +105,13 @@ inline UnstructuredGrid read_exodus(std::string const& path, ReadOptions const& 
   std::vector<int64_t> types, conn;
   std::vector<std::vector<double>> cell_values(static_cast<size_t>(nelem_vars));
   uint64_t higher_order = 0;
+  // The element number map: the ids the solver gave the elements (ParaView's
+  // GlobalElementId), 1..n when the file has none; by position among the
+  // elements of every block, volume or not.
+  std::vector<int> element_ids(static_cast<size_t>(nelem));
+  if (nelem) check(ex_get_id_map(exo, EX_ELEM_MAP, element_ids.data()), "the element number map");
+  std::vector<int> kept_ids;  // per entry of `types`
+  size_t first_element = 0;   // of the block, among all blocks' elements
   for (int b = 0; b < nblocks; ++b) {
     char type_name[MAX_STR_LENGTH + 1] = {};
     int count = 0, per = 0, edges = 0, faces = 0, attrs = 0;
@@ -113,6 +120,10 @@ inline UnstructuredGrid read_exodus(std::string const& path, ReadOptions const& 
     int corners = 0;
     bool high = false;
     int const vtk = exodus_vtk_type(type_name, corners, high);
+    size_t const first = first_element;
+    first_element += size_t(std::max(count, 0));
+    if (first_element > element_ids.size())
+      throw IoError(path + ": " + block + " holds elements past the header's " + std::to_string(nelem));
     if (!vtk || per < corners) {
       if (vtk && !opts.skip_unsupported_cells)
         throw IoError(path + ": " + block + " (" + type_name + ") has " + std::to_string(per) + " nodes per element, needs " +
@@ -125,6 +136,7 @@ inline UnstructuredGrid read_exodus(std::string const& path, ReadOptions const& 
     if (count) check(ex_get_conn(exo, EX_ELEM_BLOCK, ids[size_t(b)], c.data(), nullptr, nullptr), block + "'s connectivity");
     for (int e = 0; e < count; ++e) {
       types.push_back(vtk);
+      kept_ids.push_back(element_ids[first + size_t(e)]);
       for (int k = 0; k < corners; ++k) conn.push_back(int64_t(c[size_t(e) * size_t(per) + size_t(k)]) - 1);  // 1-based
     }
     higher_order += high ? uint64_t(count) : 0;
@@ -156,6 +168,15 @@ inline UnstructuredGrid read_exodus(std::string const& path, ReadOptions const& 
       [&offsets](uint64_t c) { return std::pair<uint64_t, uint64_t>(offsets[c], offsets[c + 1]); }, uint64_t(nnodes), opts,
       grid, where);
   grid.report.reduced_to_linear += higher_order;
+  // The file cell ids (UnstructuredGrid::tet_file_cells) are the element
+  // numbers; none when one is not positive.
+  grid.tet_file_cells.clear();
+  grid.hex_file_cells.clear();
+  if (std::all_of(kept_ids.begin(), kept_ids.end(), [](int id) { return id > 0; }))
+    for (uint64_t c = 0; c < kinds.size(); ++c) {
+      if (kinds[c] == 0) grid.tet_file_cells.push_back(uint32_t(kept_ids[c]));
+      else if (kinds[c] == 1) grid.hex_file_cells.push_back(uint32_t(kept_ids[c]));
+    }
 
   auto names = [&](ex_entity_type what, int n) {
     int const len = std::max<int>(int(ex_inquire_int(exo, EX_INQ_DB_MAX_USED_NAME_LENGTH)), MAX_STR_LENGTH);
