@@ -263,9 +263,12 @@ inline void gather_pairs(float const* pairs, xsimd::batch<int32_t, A> const& idx
     second = _mm512_permutex2var_ps(lo, _mm512_add_epi32(even, _mm512_set1_epi32(1)), hi);
   } else if constexpr (is_avx2<A>) {
     __m256i const i = idx;
+    // The masked form: GCC 12's unmasked one starts from _mm256_undefined_pd,
+    // which -Wmaybe-uninitialized flags wherever it inlines.
+    __m256d const zero = _mm256_setzero_pd(), all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
     // lo = a0 b0 a1 b1 | a2 b2 a3 b3, hi = a4 b4 a5 b5 | a6 b6 a7 b7
-    __m256 const lo = _mm256_castpd_ps(_mm256_i32gather_pd(base, _mm256_castsi256_si128(i), 8));
-    __m256 const hi = _mm256_castpd_ps(_mm256_i32gather_pd(base, _mm256_extracti128_si256(i, 1), 8));
+    __m256 const lo = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero, base, _mm256_castsi256_si128(i), all, 8));
+    __m256 const hi = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero, base, _mm256_extracti128_si256(i, 1), all, 8));
     // a0 a1 a4 a5 | a2 a3 a6 a7, then the middle 64-bit halves swapped
     __m256 const a = _mm256_shuffle_ps(lo, hi, _MM_SHUFFLE(2, 0, 2, 0));
     __m256 const b = _mm256_shuffle_ps(lo, hi, _MM_SHUFFLE(3, 1, 3, 1));
