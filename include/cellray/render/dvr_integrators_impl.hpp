@@ -25,6 +25,13 @@ namespace impl {
 
 /// Transfer function as a lookup table over [lo, hi] with the opacity
 /// already corrected for the sample spacing: a' = 1 - (1 - a)^(step / unit).
+/// Entry i + f of a PairTable's pairs (`pairs`: PairTable::data()), per lane.
+template <class A> inline vfloat<A> lerp_pairs(float const* pairs, vint<A> const& i, vfloat<A> const& f) {
+  vfloat<A> e0, e1;
+  simd::gather_pairs(pairs, i, e0, e1);
+  return e0 + f * (e1 - e0);
+}
+
 template <class A> struct TfTable {
   float const* r;  ///< PairTable::data()
   float const* g;
@@ -41,13 +48,8 @@ template <class A> struct TfTable {
                                   vfloat<A>(float(size - 1) - 1e-3f));
     vint<A> const i = xsimd_trunc<A>(x);
     vfloat<A> const f = x - to_float<A>(i);
-    auto lerp = [&](float const* t) {
-      vfloat<A> e0, e1;
-      simd::gather_pairs(t, i, e0, e1);
-      return e0 + f * (e1 - e0);
-    };
-    cr = lerp(r), cg = lerp(g), cb = lerp(b);
-    ca = simd::select(ok, lerp(a), vfloat<A>(0.f));
+    cr = lerp_pairs<A>(r, i, f), cg = lerp_pairs<A>(g, i, f), cb = lerp_pairs<A>(b, i, f);
+    ca = simd::select(ok, lerp_pairs<A>(a, i, f), vfloat<A>(0.f));
   }
 
   template <class B> static vint<B> xsimd_trunc(vfloat<B> const& x) {
@@ -108,11 +110,7 @@ template <class A> inline PieceColor<A> piece_color(PreparedTf const& ptf, vfloa
   vfloat<A> const x = simd::min(simd::max((simd::select(ok, v, lo) - lo) * scale, zero), last);
   vint<A> const i = TfTable<A>::template xsimd_trunc<A>(x);
   vfloat<A> const f = x - TfTable<A>::template to_float<A>(i);
-  auto lerp = [&](PairTable const& t) {
-    vfloat<A> e0, e1;
-    simd::gather_pairs(t.data(), i, e0, e1);
-    return e0 + f * (e1 - e0);
-  };
+  auto lerp = [&](PairTable const& t) { return lerp_pairs<A>(t.data(), i, f); };
   vfloat<A> const lt = simd::select(ok, simd::min(lerp(ptf.log_transmittance), zero), zero);
   return {lerp(ptf.r), lerp(ptf.g), lerp(ptf.b), one - vexp<A>(lt * d)};
 }
