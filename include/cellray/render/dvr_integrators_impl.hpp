@@ -23,8 +23,6 @@ namespace cellray {
 inline namespace CELLRAY_ISA_NS {
 namespace impl {
 
-/// Transfer function as a lookup table over [lo, hi] with the opacity
-/// already corrected for the sample spacing: a' = 1 - (1 - a)^(step / unit).
 /// Entry i + f of a PairTable's pairs (`pairs`: PairTable::data()), per lane.
 template <class A> inline vfloat<A> lerp_pairs(float const* pairs, vint<A> const& i, vfloat<A> const& f) {
   vfloat<A> e0, e1;
@@ -32,6 +30,8 @@ template <class A> inline vfloat<A> lerp_pairs(float const* pairs, vint<A> const
   return e0 + f * (e1 - e0);
 }
 
+/// Transfer function as a lookup table over [lo, hi] with the opacity
+/// already corrected for the sample spacing: a' = 1 - (1 - a)^(step / unit).
 template <class A> struct TfTable {
   float const* r;  ///< PairTable::data()
   float const* g;
