@@ -10,6 +10,8 @@
 //   clip(r, c)                the ray's interval in the cell per lane
 //   clip_window(r, c, lanes, t_lo, t_hi, exit_face*)
 //                             narrowed to a window; the face a march leaves by
+//   march_clip_window(same)   what a march step clips with: clip_window up to
+//                             rounding (faces seen from two sides need not agree)
 //   iso(r, k, c, isos, count, options, param*, t_from*)
 //                             nearest isovalue crossing (exact or Neubauer)
 //   locate(p, c[, lanes])     point location: inside, value, cell coordinates

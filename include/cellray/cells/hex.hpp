@@ -867,6 +867,80 @@ template <class A> inline HexClip<A> clip_hex(RayBatch<A> const& ray, CellCorner
 }
 
 namespace isa_detail {
+/// The lanes whose hexahedron is a parallelepiped: corners 2, 5, 7 and 6 are
+/// where the edges from corner 0 (to 1, 3 and 4) put them, each within
+/// hex_affine_tolerance of the edges' length. False for NaN positions and
+/// for collapsed cells (wedges, pyramids, folded tets: a repeated corner
+/// leaves an edge's length as the defect).
+template <class A> CELLRAY_FORCE_INLINE vmask<A> parallelepiped_lanes(CellCorners<A, 8> const& c) {
+  Vec3<A> const p0 = c.p(0), e1 = c.p(1) - p0, e2 = c.p(3) - p0, e3 = c.p(4) - p0;
+  Vec3<A> const d2 = c.p(2) - p0 - e1 - e2, d5 = c.p(5) - p0 - e1 - e3, d7 = c.p(7) - p0 - e2 - e3;
+  Vec3<A> const d6 = c.p(6) - p0 - e1 - e2 - e3;
+  vfloat<A> const worst = simd::max(simd::max(dot(d2, d2), dot(d5, d5)), simd::max(dot(d7, d7), dot(d6, d6)));
+  vfloat<A> const scale = dot(e1, e1) + dot(e2, e2) + dot(e3, e3);
+  return worst <= vfloat<A>(hex_affine_tolerance * hex_affine_tolerance) * scale;
+}
+}  // namespace isa_detail
+
+/// clip_hex_window for lanes that all hold parallelepipeds
+/// (parallelepiped_lanes), as a slab test in the cell's own coordinates:
+/// the ray as u(t) = M^-1 (o + t d - p0), M the edges from corner 0, against
+/// the unit cube. Trilinear coordinates at entry and exit come from the
+/// same line (clamped to the cube), values by trilinear interpolation,
+/// `affine` set. The same interval as the six face planes up to rounding
+/// (tests/test_cells_hex_affine.cpp), at a fraction of the work: no face is
+/// put in canonical order, so a face shared with a neighbour does not give
+/// bit-identical crossings. For marches (CellOps::march_clip_window), which
+/// go on from where the last cell ended, not for isosurface leaves.
+template <class A>
+inline HexClip<A> clip_parallelepipeds(RayBatch<A> const& ray, CellCorners<A, 8> const& c, vmask<A> const& lanes,
+                                       vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face = nullptr) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  vfloat<A> const zero(0.f), one(1.f);
+  Vec3<A> const p0 = c.p(0), e1 = c.p(1) - p0, e2 = c.p(3) - p0, e3 = c.p(4) - p0;
+  // Dual basis: u = n1 . (x - p0) / det, and so on.
+  Vec3<A> const n1 = cross(e2, e3), n2 = cross(e3, e1), n3 = cross(e1, e2);
+  vfloat<A> const det = dot(e1, n1);
+  vmask<A> const solid = !(det == zero);
+  vfloat<A> const inv_det = one / simd::select(solid, det, one);
+  Vec3<A> const r0 = ray.origin() - p0, d = ray.dir();
+  vfloat<A> const uo[3] = {dot(n1, r0) * inv_det, dot(n2, r0) * inv_det, dot(n3, r0) * inv_det};
+  vfloat<A> const ud[3] = {dot(n1, d) * inv_det, dot(n2, d) * inv_det, dot(n3, d) * inv_det};
+  // Per axis the slab [0, 1]; a ray in a face's plane (0 / 0) is inside it.
+  vfloat<A> near[3], far[3];
+  for (int a = 0; a < 3; ++a) {
+    vfloat<A> const inv = one / ud[a];
+    vfloat<A> const t0 = -uo[a] * inv, t1 = (one - uo[a]) * inv;
+    vmask<A> const in_plane = simd::isnan(t0) || simd::isnan(t1);
+    near[a] = simd::select(in_plane, vfloat<A>(-inf), simd::min(t0, t1));
+    far[a] = simd::select(in_plane, vfloat<A>(inf), simd::max(t0, t1));
+  }
+  vfloat<A> const t_in = simd::max(simd::max(near[0], near[1]), near[2]);
+  vfloat<A> const t_out = simd::min(simd::min(far[0], far[1]), far[2]);
+  HexClip<A> r;
+  r.t_in = t_in, r.t_out = t_out;
+  r.hit = lanes && solid && t_in < t_out && t_out >= t_lo && t_in <= t_hi;
+  auto at = [&](vfloat<A> const& t) {
+    auto unit = [&](vfloat<A> const& x) { return simd::min(simd::max(x, zero), one); };
+    return Vec3<A>{unit(uo[0] + t * ud[0]), unit(uo[1] + t * ud[1]), unit(uo[2] + t * ud[2])};
+  };
+  r.u_in = at(t_in), r.u_out = at(t_out);
+  r.s_in = isa_detail::trilerp<A>(c.s, r.u_in), r.s_out = isa_detail::trilerp<A>(c.s, r.u_out);
+  r.affine = r.hit;
+  r.linear = simd::no_lanes<A>();
+  if (exit_face) {
+    // hex_faces: u = 0 / 1 are faces 4 / 5, v = 0 / 1 faces 2 / 3, w = 0 / 1
+    // faces 0 / 1; the ray leaves a slab at its far side.
+    vint<A> const face_u = simd::select(simd::to_int_mask(ud[0] > zero), vint<A>(5), vint<A>(4));
+    vint<A> const face_v = simd::select(simd::to_int_mask(ud[1] > zero), vint<A>(3), vint<A>(2));
+    vint<A> const face_w = simd::select(simd::to_int_mask(ud[2] > zero), vint<A>(1), vint<A>(0));
+    *exit_face = simd::select(simd::to_int_mask(far[0] == t_out), face_u,
+                              simd::select(simd::to_int_mask(far[1] == t_out), face_v, face_w));
+  }
+  return r;
+}
+
+namespace isa_detail {
 /// Trilinear coordinates of `p` in a tetrahedron stored as a hexahedron (0 1
 /// 2 2 3 3 3 3, fold_tets_into_hexes) whose corners 0, 1, 2 and 4 are at
 /// `p0`, `p1`, `p2`, `p4`: barycentric weights l1, l2, l3 of corners 1, 2 and
@@ -1280,6 +1354,30 @@ template <class A> struct CellOps<A, 8> {
     if (CELLRAY_UNLIKELY(simd::all(!lanes || isa_detail::folded_tet_lanes(c))))
       return isa_detail::clip_folded_tets(r, c, lanes, t_lo, t_hi, exit_face);
     return clip_hex_window(r, c, lanes, t_lo, t_hi, exit_face);
+  }
+  /// A march's clip: when every lane holds a parallelepiped (a structured
+  /// grid's cells, snappyHexMesh's unrefined interior), the slab test
+  /// (clip_parallelepipeds), else clip_window. A march goes on from where
+  /// the last cell ended, so the rounding of a face seen from two sides
+  /// does not open gaps (boxturb48 DVR, 1 thread: see docs/performance.md).
+  /// The choice is per lane, a function of the cell alone, so the locate
+  /// that starts a march (FirstCellQuery) and the march's step clip a cell
+  /// alike: a located cell always lets the lane progress.
+  static Clip march_clip_window(RayBatch<A> const& r, CellCorners<A, 8> const& c, vmask<A> const& lanes,
+                                vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face) {
+    vmask<A> const para = isa_detail::parallelepiped_lanes(c);
+    vmask<A> const slab = lanes && para, general = lanes && !para;
+    if (simd::none(general)) return clip_parallelepipeds(r, c, lanes, t_lo, t_hi, exit_face);
+    if (simd::none(slab)) return clip_window(r, c, lanes, t_lo, t_hi, exit_face);
+    vint<A> face_g(0), face_s(0);
+    Clip k = clip_window(r, c, general, t_lo, t_hi, exit_face ? &face_g : nullptr);
+    Clip const p = clip_parallelepipeds(r, c, slab, t_lo, t_hi, exit_face ? &face_s : nullptr);
+    k.t_in = simd::select(slab, p.t_in, k.t_in), k.t_out = simd::select(slab, p.t_out, k.t_out);
+    k.s_in = simd::select(slab, p.s_in, k.s_in), k.s_out = simd::select(slab, p.s_out, k.s_out);
+    k.u_in = select<A>(slab, p.u_in, k.u_in), k.u_out = select<A>(slab, p.u_out, k.u_out);
+    k.hit = k.hit || p.hit, k.affine = k.affine || p.affine, k.linear = k.linear && general;
+    if (exit_face) *exit_face = simd::select(simd::to_int_mask(slab), face_s, face_g);
+    return k;
   }
   static constexpr bool march_reuses_corners = false;
   static constexpr bool occlusion_in_pairs = false;

@@ -16,12 +16,17 @@
 // step makes no progress: a ray through an edge or vertex may leave into a
 // cell that does not contain its continuation).
 //
-// The segments are the packet clip's (same kernel, same canonical faces), so
-// a march integrates what a traversal would, cell for cell; shared faces give
-// bit-identical t and values on both sides. A hex clip's exit face is the
-// face of the crossing at its t_out: near an edge that may be the wrong one
-// of two, and the neighbour across it then makes no progress, which sends
-// the lane back to the tree (as for a tet ray through an edge).
+// The segments are the packet clip's up to rounding (CellOps::
+// march_clip_window: the same kernel, but for parallelepipeds, which a
+// march clips as slabs in the cell's own coordinates, not face by face), so
+// a march integrates what a traversal would, cell for cell. A march goes on
+// from where the last cell ended (a piece starts at max(t_in, t)), so faces
+// seen from two sides need not agree bit for bit; the locate clips with the
+// march's clip, so a located cell always lets its lane progress. A hex
+// clip's exit face is the face of the crossing at its t_out: near an edge
+// that may be the wrong one of two, and the neighbour across it then makes
+// no progress, which sends the lane back to the tree (as for a tet ray
+// through an edge).
 
 #include <algorithm>
 #include <cstdint>
@@ -89,7 +94,7 @@ template <class A, int N> struct FirstCellQuery {
   vfloat<A> t_hi() const { return simd::min(hi, best_t); }  // a cell entered past the best cannot be better
 
   void visit(CellCorners<A, N> const& c, vmask<A> const& m, vint<A> const& cells) {
-    auto const k = CellOps<A, N>::clip_window(ray_batch(r), c, m, lo, t_hi());
+    auto const k = CellOps<A, N>::march_clip_window(ray_batch(r), c, m, lo, t_hi(), nullptr);
     vmask<A> ok = k.hit && k.t_out > lo && k.t_in < best_t && !has_nan_value(c);
     if (simd::none(ok)) return;
     ok = ok && visible_values<A, N>(windows, c, k);
@@ -190,7 +195,7 @@ template <class A, int N> struct CellMarch {
       s.c = last_valid ? next_corners(lanes) : gather_corners<A, N>(mesh, cell, lanes);
     else
       s.c = gather_corners<A, N>(mesh, cell, lanes);
-    s.k = Ops::clip_window(ray_batch(r), s.c, lanes, t, t_end, &exit_face);
+    s.k = Ops::march_clip_window(ray_batch(r), s.c, lanes, t, t_end, &exit_face);
     // A field linear on every ray has one gradient per cell.
     if constexpr (Ops::linear_on_ray)
       if (want_gradient) s.gradient = Ops::gradient_at(s.c, Vec3<A>{});
