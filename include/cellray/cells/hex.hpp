@@ -48,7 +48,9 @@
 // choose each face's canonical rotation once in scalar code
 // (CellCorners::uniform) instead of per lane. Bit identity between
 // neighbours and between the packet and SPMD loaders is tested in
-// tests/test_cells_hex_affine.cpp.
+// tests/test_cells_hex_affine.cpp. Marches, which need no bit-identical
+// faces, clip parallelepipeds as slabs in the cell's own coordinates
+// instead (clip_parallelepipeds, CellOps<A, 8>::march_clip_window).
 
 #include <cstdint>
 #include <limits>
