@@ -884,8 +884,9 @@ template <class A> CELLRAY_FORCE_INLINE vmask<A> parallelepiped_lanes(CellCorner
 }
 }  // namespace isa_detail
 
-/// clip_hex_window for lanes that all hold parallelepipeds
-/// (parallelepiped_lanes), as a slab test in the cell's own coordinates:
+/// clip_hex_window for the lanes of `lanes` that hold parallelepipeds
+/// (parallelepiped_lanes; other lanes' results mean nothing), as a slab
+/// test in the cell's own coordinates:
 /// the ray as u(t) = M^-1 (o + t d - p0), M the edges from corner 0, against
 /// the unit cube. Trilinear coordinates at entry and exit come from the
 /// same line (clamped to the cube), values by trilinear interpolation,
@@ -893,7 +894,9 @@ template <class A> CELLRAY_FORCE_INLINE vmask<A> parallelepiped_lanes(CellCorner
 /// (tests/test_cells_hex_affine.cpp), at a fraction of the work: no face is
 /// put in canonical order, so a face shared with a neighbour does not give
 /// bit-identical crossings. For marches (CellOps::march_clip_window), which
-/// go on from where the last cell ended, not for isosurface leaves.
+/// go on from where the last cell ended, not for isosurface leaves: there a
+/// root at a face two cells round apart can fall in neither interval
+/// (docs/performance.md, "Tried and dropped").
 template <class A>
 inline HexClip<A> clip_parallelepipeds(RayBatch<A> const& ray, CellCorners<A, 8> const& c, vmask<A> const& lanes,
                                        vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face = nullptr) {
@@ -1357,14 +1360,16 @@ template <class A> struct CellOps<A, 8> {
       return isa_detail::clip_folded_tets(r, c, lanes, t_lo, t_hi, exit_face);
     return clip_hex_window(r, c, lanes, t_lo, t_hi, exit_face);
   }
-  /// A march's clip: when every lane holds a parallelepiped (a structured
-  /// grid's cells, snappyHexMesh's unrefined interior), the slab test
-  /// (clip_parallelepipeds), else clip_window. A march goes on from where
-  /// the last cell ended, so the rounding of a face seen from two sides
-  /// does not open gaps (boxturb48 DVR, 1 thread: see docs/performance.md).
-  /// The choice is per lane, a function of the cell alone, so the locate
-  /// that starts a march (FirstCellQuery) and the march's step clip a cell
-  /// alike: a located cell always lets the lane progress.
+  /// A march's clip: parallelepipeds (a structured grid's cells, as
+  /// boxturb48's) by the slab test (clip_parallelepipeds), the other lanes
+  /// by clip_window. A march goes on from where the last cell ended, so
+  /// the rounding of a face seen from two sides opens no gap in DVR
+  /// (boxturb48 DVR 1.5x, 1 thread: docs/performance.md); an AO ray's
+  /// isovalue crossing exactly there can be missed (march_occluded), as
+  /// primary rays did 3 in 1M times with this clip, noise far below an AO
+  /// ray's own. The choice is per lane, a function of the cell alone, so
+  /// the locate that starts a march (FirstCellQuery) and the march's step
+  /// clip a cell alike: a located cell always lets the lane progress.
   static Clip march_clip_window(RayBatch<A> const& r, CellCorners<A, 8> const& c, vmask<A> const& lanes,
                                 vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face) {
     vmask<A> const para = isa_detail::parallelepiped_lanes(c);
