@@ -397,10 +397,10 @@ template <class A> struct CellOps<A, 4> {
                           vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face = nullptr) {
     return clip_tet_window(r, c, lanes, t_lo, t_hi, exit_face);
   }
-  /// A march's clip (CellMarch::step): clip_window's.
+  /// A march's clip (CellMarch::step): clip_window.
   static Clip march_clip_window(RayBatch<A> const& r, CellCorners<A, 4> const& c, vmask<A> const& lanes,
                                 vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face) {
-    return clip_tet_window(r, c, lanes, t_lo, t_hi, exit_face);
+    return clip_window(r, c, lanes, t_lo, t_hi, exit_face);
   }
   /// A march's next cell shares a face's corners with the last one: the
   /// march gathers only the one it does not share (CellMarch::next_corners).
