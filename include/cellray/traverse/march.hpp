@@ -144,6 +144,7 @@ template <class A, int N> struct CellMarch {
   /// Tets: the corners of every lane's last cell (valid after a step, until
   /// the next locate): a lane's next cell shares three of them.
   CellCorners<A, N> last;
+  vint<A> last_exit = vint<A>(0);  ///< tets: the face each lane left its last cell through
   bool last_valid = false;
   /// next_corners applies: a type that shares a face's corners with its
   /// neighbour (tets), 32-bit indices whose ids are the corners' keys.
@@ -210,50 +211,63 @@ template <class A, int N> struct CellMarch {
     t = simd::select(progress, s.e, t);
     vmaski<A> const go_on = pi && faint <= vint<A>(max_faint);
     cell = simd::select(simd::to_int_mask(lanes), simd::select(go_on, next, vint<A>(-1)), cell);
-    if constexpr (Ops::march_reuses_corners) last = c, last_valid = reuse_ok;
+    if constexpr (Ops::march_reuses_corners) last = c, last_exit = exit_face, last_valid = reuse_ok;
     return s;
   }
 
-  /// gather_corners for lanes whose tet is the neighbour of their last one:
-  /// the new cell's ids (4 gathers, sorted as gather_corners sorts them),
-  /// the three corners it shares with the last cell taken from there, and
-  /// only the fourth vertex's position and value gathered (4 gathers instead
-  /// of 16). The same corners, bit for bit.
+  /// gather_corners for lanes whose tet is the neighbour of their last one
+  /// across face `last_exit`: the three corners of that face are the last
+  /// cell's others, already in ascending id order; the new cell's fourth id
+  /// is the xor of its four ids with those three (the one it does not
+  /// share), its position and value the only ones gathered (4 gathers
+  /// instead of 16), and it goes where its id sorts among the three. The
+  /// same corners, bit for bit, as gather_corners (equal ids: the same
+  /// vertex, wherever it sorts).
   CellCorners<A, 4> next_corners(vmask<A> const& lanes) const {
     static_assert(N == 4);
     CellCorners<A, 4> c;
     vint<A> const cl = simd::select(simd::to_int_mask(lanes), cell, vint<A>(0));
     auto const* idx = reinterpret_cast<int32_t const*>(mesh.indices32());
-    vint<A> vs[4];
-    for (int i = 0; i < 4; ++i) vs[i] = simd::gather(idx, cl * vint<A>(4) + vint<A>(i));
-    isa_detail::sort_tet_ids<A>(vs);
-    vint<A> fresh_id = vs[0];
-    vmaski<A> fresh[4];
-    for (int i = 0; i < 4; ++i) {
-      c.id[i] = vs[i];
-      c.x[i] = c.y[i] = c.z[i] = c.s[i] = vfloat<A>(0.f);
-      vmaski<A> found = vs[i] != vs[i];  // none
-      for (int j = 0; j < 4; ++j) {
-        vmaski<A> const m = vs[i] == last.id[j];
-        vmask<A> const mf = simd::to_float_mask(m);
-        c.x[i] = simd::select(mf, last.x[j], c.x[i]), c.y[i] = simd::select(mf, last.y[j], c.y[i]);
-        c.z[i] = simd::select(mf, last.z[j], c.z[i]), c.s[i] = simd::select(mf, last.s[j], c.s[i]);
-        found = found || m;
-      }
-      fresh[i] = !found;
-      fresh_id = simd::select(fresh[i], vs[i], fresh_id);
+    vint<A> fresh_id(0);
+    for (int i = 0; i < 4; ++i) fresh_id = fresh_id ^ simd::gather(idx, cl * vint<A>(4) + vint<A>(i));
+    // The shared face: the last corners but the one opposite it.
+    vint<A> sid[3];
+    vfloat<A> sx[3], sy[3], sz[3], ss[3];
+    for (int k = 0; k < 3; ++k) {
+      vmaski<A> const after = last_exit <= vint<A>(k);
+      vmask<A> const af = simd::to_float_mask(after);
+      sid[k] = simd::select(after, last.id[k + 1], last.id[k]);
+      sx[k] = simd::select(af, last.x[k + 1], last.x[k]), sy[k] = simd::select(af, last.y[k + 1], last.y[k]);
+      sz[k] = simd::select(af, last.z[k + 1], last.z[k]), ss[k] = simd::select(af, last.s[k + 1], last.s[k]);
+      fresh_id = fresh_id ^ sid[k];
     }
+    // Lanes outside `lanes` xor another cell's ids with stale corners, and
+    // so would neighbours that do not fit the mesh (FaceNeighbours::fits
+    // samples it): vertex 0 there, wrong pixels at worst, never a read
+    // outside the arrays.
+    vint<A> const last_vertex(int32_t(mesh.vertex_count() - 1));  // reuse_ok: < 2^31 vertices
+    vmaski<A> const readable = simd::to_int_mask(lanes) && fresh_id >= vint<A>(0) && fresh_id <= last_vertex;
+    fresh_id = simd::select(readable, fresh_id, vint<A>(0));
     float const* xyz = mesh.positions();
     float const* val = mesh.values();
     vint<A> const v3 = fresh_id * vint<A>(3);
     vfloat<A> const fx = simd::gather(xyz, v3), fy = simd::gather(xyz + 1, v3), fz = simd::gather(xyz + 2, v3);
     vfloat<A> const fs =
         val ? simd::finite_or_nan(simd::gather(val, fresh_id)) : vfloat<A>(std::numeric_limits<float>::quiet_NaN());
-    for (int i = 0; i < 4; ++i) {
-      vmask<A> const mf = simd::to_float_mask(fresh[i]);
-      c.x[i] = simd::select(mf, fx, c.x[i]), c.y[i] = simd::select(mf, fy, c.y[i]);
-      c.z[i] = simd::select(mf, fz, c.z[i]), c.s[i] = simd::select(mf, fs, c.s[i]);
-    }
+    // before[k]: the shared corner k sorts before the fresh one (they are
+    // ascending, so before[0] >= before[1] >= before[2]).
+    vmaski<A> before[3];
+    for (int k = 0; k < 3; ++k) before[k] = sid[k] < fresh_id;
+    auto place = [&](auto& out, auto const (&shared)[3], auto const& fresh, auto const& mask_of) {
+      out[0] = simd::select(mask_of(before[0]), shared[0], fresh);
+      out[1] = simd::select(mask_of(before[1]), shared[1], simd::select(mask_of(before[0]), fresh, shared[0]));
+      out[2] = simd::select(mask_of(before[2]), shared[2], simd::select(mask_of(before[1]), fresh, shared[1]));
+      out[3] = simd::select(mask_of(before[2]), fresh, shared[2]);
+    };
+    auto as_int = [](vmaski<A> const& m) { return m; };
+    auto as_float = [](vmaski<A> const& m) { return simd::to_float_mask(m); };
+    place(c.id, sid, fresh_id, as_int);
+    place(c.x, sx, fx, as_float), place(c.y, sy, fy, as_float), place(c.z, sz, fz, as_float), place(c.s, ss, fs, as_float);
     return c;
   }
 };
