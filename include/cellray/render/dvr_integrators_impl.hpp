@@ -391,13 +391,16 @@ void march_step(MixedMarch<A>& m, RayBatch<A> const& ray, vmask<A> const& has, v
 /// the lanes in SIMD as it is found. `March`: a CellMarch (one part with
 /// face neighbours) or a MixedMarch (a tet and a hexahedral part, linked),
 /// set up over [t_enter, t_exit]. Not inlined: inside dvr_packet, GCC left
-/// shade_batch out of line (shaded tet DVR 4-5% slower).
-template <class A, class March>
-CELLRAY_NOINLINE void integrate_march(PreparedScene const& s, March& m, RayPacket<A> const& r, vmask<A> const& inside,
-                     vfloat<A> const& t_exit, DvrParams const& p, Traversal how, int threshold, vfloat<A>& cr,
-                     vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca, float depth_at, vfloat<A>& depth) {
+/// shade_batch out of line (shaded tet DVR 4-5% slower). One copy per
+/// `shade` (integrate_march picks it): unshaded, a step's corner positions
+/// die with its clip instead of being kept (spilled) for gradients that are
+/// never asked for.
+template <class A, class March, bool shade>
+CELLRAY_NOINLINE void integrate_march_as(PreparedScene const& s, March& m, RayPacket<A> const& r,
+                                         vmask<A> const& inside, vfloat<A> const& t_exit, DvrParams const& p,
+                                         Traversal how, int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb,
+                                         vfloat<A>& ca, float depth_at, vfloat<A>& depth) {
   PreparedTf const& ptf = *s.tf;
-  bool const shade = p.shading.enabled;
   vfloat<A> const zero(0.f), one(1.f), half(0.5f), term(p.termination), inv_step(1.f / s.step);
   RayBatch<A> const ray = ray_batch(r);
   // The pieces of one step's segments [t_in, t_out] past a, up to e; the
@@ -454,6 +457,16 @@ CELLRAY_NOINLINE void integrate_march(PreparedScene const& s, March& m, RayPacke
     }
     live = live && ca < term && m.t < t_exit;
   }
+}
+
+template <class A, class March>
+inline void integrate_march(PreparedScene const& s, March& m, RayPacket<A> const& r, vmask<A> const& inside,
+                            vfloat<A> const& t_exit, DvrParams const& p, Traversal how, int threshold, vfloat<A>& cr,
+                            vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca, float depth_at, vfloat<A>& depth) {
+  if (p.shading.enabled)
+    integrate_march_as<A, March, true>(s, m, r, inside, t_exit, p, how, threshold, cr, cg, cb, ca, depth_at, depth);
+  else
+    integrate_march_as<A, March, false>(s, m, r, inside, t_exit, p, how, threshold, cr, cg, cb, ca, depth_at, depth);
 }
 
 /// Point-sampled DVR (Rathke 2015 §7): samples at t_enter + (k + 1/2) step,
