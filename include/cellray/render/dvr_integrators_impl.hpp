@@ -392,9 +392,9 @@ void march_step(MixedMarch<A>& m, RayBatch<A> const& ray, vmask<A> const& has, v
 /// face neighbours) or a MixedMarch (a tet and a hexahedral part, linked),
 /// set up over [t_enter, t_exit]. Not inlined: inside dvr_packet, GCC left
 /// shade_batch out of line (shaded tet DVR 4-5% slower). One copy per
-/// `shade` (integrate_march picks it): unshaded, a step's corner positions
-/// die with its clip instead of being kept (spilled) for gradients that are
-/// never asked for.
+/// `shade` (integrate_march picks it): with the flag a constant, the
+/// unshaded march drops what only shading reads (a step's corner positions
+/// after its clip, the gradient cubics): DVR 1.01-1.03x, docs/performance.md.
 template <class A, class March, bool shade>
 CELLRAY_NOINLINE void integrate_march_as(PreparedScene const& s, March& m, RayPacket<A> const& r,
                                          vmask<A> const& inside, vfloat<A> const& t_exit, DvrParams const& p,
