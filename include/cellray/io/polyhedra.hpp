@@ -189,7 +189,7 @@ inline PolySplitError split_polyhedra(UnstructuredGrid& grid, NumArray const& fa
 
   // Pass 1, in parallel (each polyhedron is independent; check and
   // decompose were ~15% of the load when serial): check each polyhedron and
-  // count its cells (a face of more than 4 corners is split to count its
+  // count its cells (a face of more than 5 corners is split to count its
   // parts; the split is a function of the face, so pass 2 gets the same).
   // Counting first, then writing every cell straight to its place, beat
   // keeping the cells of pass 1 (their 4 MB of fresh pages and the copy:
@@ -211,9 +211,16 @@ inline PolySplitError split_polyhedra(UnstructuredGrid& grid, NumArray const& fa
           errors[j] = std::move(err);
           break;
         }
-        for (size_t i = 0; i < f.face_count(); ++i)
-          cellray::detail::for_each_face_part(f.ids.data() + f.offsets[i], f.offsets[i + 1] - f.offsets[i], xyz_in,
-                                              [&](uint64_t const*, size_t n) { ++(n == 4 ? hex_at : tet_at)[k + 1]; });
+        for (size_t i = 0; i < f.face_count(); ++i) {
+          size_t const n = f.offsets[i + 1] - f.offsets[i];
+          if (n <= 5) {  // a pentagon's split is a triangle and a quad, whatever its shape
+            tet_at[k + 1] += n != 4;
+            hex_at[k + 1] += n != 3;
+            continue;
+          }
+          cellray::detail::for_each_face_part(f.ids.data() + f.offsets[i], n, xyz_in,
+                                              [&](uint64_t const*, size_t m) { ++(m == 4 ? hex_at : tet_at)[k + 1]; });
+        }
       }
     }
   });
@@ -244,11 +251,12 @@ inline PolySplitError split_polyhedra(UnstructuredGrid& grid, NumArray const& fa
   uint32_t* const hexes = grid.hexes.data();
   for_poly_chunks(npoly, [&](tbb::blocked_range<uint64_t> const& r) {
     PolyhedronFaces f;
+    PolyhedronSplit split;
     std::vector<uint64_t> verts;
     for (uint64_t j = r.begin(); j < r.end(); ++j) {
       for (uint64_t k = j * grain, ke = std::min(npoly, k + grain); k < ke; ++k) {
         parse_polyhedron(faces, polys[k], f, whole);  // checked in pass 1
-        PolyhedronSplit const split = decompose_polyhedron(f, xyz, np + k);
+        decompose_polyhedron(f, xyz, np + k, split);
         assert(split.tets.size() == tet_at[k + 1] - tet_at[k] && split.hexes.size() == hex_at[k + 1] - hex_at[k]);
         for (int a = 0; a < 3; ++a) xyz[3 * (np + k) + uint64_t(a)] = float(split.centre[a]);
         if (need_means) {
