@@ -99,7 +99,7 @@ for k, p in enumerate(phases + ["other"]):
     left = [a + b for a, b in zip(left, vals)]
 ax.invert_yaxis()
 ax.set_xlabel("ms from process start to the image on disk (median of %d fresh runs)" % len(next(iter(runs.values()))))
-ax.set_title("First image of a new mesh, 1024x768 (2.4M tets: 1024x1024), cellray-render --stats, wall time around the process (%s)" % sys.argv[2], fontsize=9)
+ax.set_title("First image of a new mesh (1024x768; 2.4M tets 1024x1024), cellray-render --stats (%s)" % sys.argv[2], fontsize=9)
 ax.legend(fontsize=7, ncol=10, loc="upper center", bbox_to_anchor=(0.5, -0.2), frameon=False, columnspacing=1.0)
 fig.tight_layout()
 fig.savefig("docs/first_image.png", dpi=110)
