@@ -8,7 +8,7 @@
 // parent, so the refined mesh renders the parent's picture. Written as a
 // legacy binary VTK 4.2 file (big-endian, as foamToVTK and gmsh write them).
 // Exit 0, or 1 with a message on stderr (hexahedra, wedges, pyramids,
-// polyhedra: not refined; more than 2^31 cells).
+// polyhedra: not refined; ids or a CELLS list beyond 32 bits).
 
 #include <cstdint>
 #include <cstdio>
@@ -52,7 +52,8 @@ struct File {
 void refine(cellray::UnstructuredGrid const& g, std::string const& out_path) {
   if (!g.hexes.empty()) throw std::runtime_error("refines tetrahedral meshes only (this one has other cell types)");
   uint64_t const nv = g.vertex_count(), nt = g.tets.size() / 4;
-  if (4 * nt > uint64_t(std::numeric_limits<int32_t>::max()) / 5)
+  if (4 * nt > uint64_t(std::numeric_limits<int32_t>::max()) / 5 ||
+      nv + nt > uint64_t(std::numeric_limits<int32_t>::max()))
     throw std::runtime_error("too many cells for a legacy file's 32-bit CELLS list");
   std::vector<float> xyz(g.xyz);
   xyz.resize(3 * (nv + nt));
