@@ -945,8 +945,9 @@ int run(Options const& o) {
   }
   // Smooth isosurface normals: per-vertex gradients of the rendered array.
   // Without a time step that is the build's array, and they are computed
-  // on a task of their own while the BVH builds: one serial pass beside a
-  // build that leaves a core idle in its less parallel stretches (fresh
+  // on a task of their own while the BVH builds: a pass (two ranges in
+  // parallel on large meshes) beside a build that leaves a core idle in
+  // its less parallel stretches (fresh
   // processes, median to the written image: component8 iso 175 -> 167 ms,
   // the flange 185 -> 175 ms).
   // The face neighbours gained nothing there: they are parallel throughout.

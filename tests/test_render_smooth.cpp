@@ -129,7 +129,8 @@ TEST_CASE("vertex gradients match a double-precision sum over the cells, whateve
           "[render][smooth]") {
   // A curved field: what one double-precision pass over the cells gives
   // (float sums, so to ~1e-5 relative), the same bits on 1 and on all
-  // threads, and a NaN vertex's cells left out of every sum.
+  // threads (whether one pass or several ranges in parallel), and a NaN
+  // vertex's cells left out of every sum.
   auto check = [](auto const& g) {
     constexpr int N = decltype(g.mesh())::corners;
     std::vector<float> f = field_of(g, [](glm::vec3 p) { return std::sin(3.f * p.x) * p.y + p.z * p.z; });
@@ -189,6 +190,13 @@ TEST_CASE("vertex gradients match a double-precision sum over the cells, whateve
   };
   check(generate_tets(6 * 12 * 12 * 12, 3));
   check(generate_hexes(16 * 16 * 16, 3));
+  // Large enough to be cut into ranges accumulated in parallel.
+  auto const many_tets = generate_tets(6 * 30 * 30 * 30, 3);
+  auto const many_hexes = generate_hexes(48 * 48 * 48, 3);
+  REQUIRE(many_tets.mesh().cell_count() >= 2 * detail::gradient_part_cells);
+  REQUIRE(many_hexes.mesh().cell_count() >= 2 * detail::gradient_part_cells);
+  check(many_tets);
+  check(many_hexes);
 }
 
 TEST_CASE("wedges and pyramids give every vertex a gradient, the collapsed side's and the apex's too",

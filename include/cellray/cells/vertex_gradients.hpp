@@ -10,9 +10,11 @@
 // (GradientMethod::smooth), so normals vary smoothly across cells where the
 // per-cell analytic gradient is constant in a tet (facets). Computed in
 // double, accumulated and stored as float; 12 bytes per vertex (plus 4 while
-// building). A new time step (another array) needs them again:
-// build_vertex_gradients on the new view.
+// building, and 16 more for the second range of the parallel pass).
+// A new time step (another array) needs them again: build_vertex_gradients
+// on the new view.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -20,6 +22,8 @@
 
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "../mesh/cell_mesh.hpp"
 
@@ -71,26 +75,15 @@ inline void add_corner_gradient(float const* xyz, float const* val, uint64_t o, 
 
 }  // namespace detail
 
-/// Builds the per-vertex gradients of `mesh`'s active array. One pass over
-/// the cells, accumulating into the result: no per-cell or per-corner
-/// scratch (first-touch page faults, not arithmetic, were most of the cost
-/// of a parallel version with a vertex-to-corner list: component8 608k tets
-/// 178 ms cold against 44 ms warm). Vertex ids must be valid (validate()
-/// first). Thread-safe.
-template <int N> VertexGradients build_vertex_gradients(CellMesh<N> const& mesh) {
-  uint64_t const nv = mesh.vertex_count(), nc = mesh.cell_count();
-  VertexGradients out;
-  constexpr float qnan = std::numeric_limits<float>::quiet_NaN();
-  if (!mesh.has_values() || nc == 0) {
-    out.g_.assign(3 * nv, qnan);
-    return out;
-  }
-  out.g_.assign(3 * nv, 0.f);
-  std::vector<float> weight(nv, 0.f);
+namespace detail {
+
+/// Adds the gradients of cells [begin, end) of `mesh` into g (xyz per
+/// vertex) and their weights into `weight`. Vertex ids must be valid.
+template <int N>
+void accumulate_vertex_gradients(CellMesh<N> const& mesh, uint64_t begin, uint64_t end, float* g, float* weight) {
   float const* xyz = mesh.positions();
   float const* val = mesh.values();
-  float* g = out.g_.data();
-  for (uint64_t c = 0; c < nc; ++c) {
+  for (uint64_t c = begin; c < end; ++c) {
     uint64_t v[N];
     bool finite = true;
     for (int k = 0; k < N; ++k) {
@@ -107,7 +100,7 @@ template <int N> VertexGradients build_vertex_gradients(CellMesh<N> const& mesh)
     if (tet) {
       uint64_t const t[4] = {v[0], v[1], v[2], v[N == 4 ? 3 : 4]};
       float acc[3] = {0.f, 0.f, 0.f}, w = 0.f;
-      detail::add_corner_gradient(xyz, val, t[0], t[1], t[2], t[3], 1.0, acc, w);
+      add_corner_gradient(xyz, val, t[0], t[1], t[2], t[3], 1.0, acc, w);
       for (uint64_t vk : t) {
         for (int a = 0; a < 3; ++a) g[3 * vk + uint64_t(a)] += acc[a];
         weight[vk] += w;
@@ -117,8 +110,7 @@ template <int N> VertexGradients build_vertex_gradients(CellMesh<N> const& mesh)
       static constexpr int nb[8][3] = {{1, 3, 4}, {2, 0, 5}, {3, 1, 6}, {0, 2, 7},
                                        {7, 5, 0}, {4, 6, 1}, {5, 7, 2}, {6, 4, 3}};
       for (int k = 0; k < 8; ++k)
-        detail::add_corner_gradient(xyz, val, v[k], v[nb[k][0]], v[nb[k][1]], v[nb[k][2]], 1.0, g + 3 * v[k],
-                                    weight[v[k]]);
+        add_corner_gradient(xyz, val, v[k], v[nb[k][0]], v[nb[k][1]], v[nb[k][2]], 1.0, g + 3 * v[k], weight[v[k]]);
       // Where an edge has collapsed, the loop's corner has an edge of no
       // length and adds nothing: a wedge's two vertices on its collapsed
       // side and a pyramid's apex would get nothing from their cells (NaN
@@ -128,17 +120,72 @@ template <int N> VertexGradients build_vertex_gradients(CellMesh<N> const& mesh)
       // edges); a pyramid has none at its apex, which takes the four
       // tetrahedra of the apex and three consecutive base corners.
       if (v[2] == v[3] && v[6] == v[7] && v[2] != v[6]) {  // mesh/vtk_cells.hpp's wedge_as_hex
-        detail::add_corner_gradient(xyz, val, v[2], v[0], v[1], v[6], 1.0, g + 3 * v[2], weight[v[2]]);
-        detail::add_corner_gradient(xyz, val, v[6], v[4], v[5], v[2], 1.0, g + 3 * v[6], weight[v[6]]);
+        add_corner_gradient(xyz, val, v[2], v[0], v[1], v[6], 1.0, g + 3 * v[2], weight[v[2]]);
+        add_corner_gradient(xyz, val, v[6], v[4], v[5], v[2], 1.0, g + 3 * v[6], weight[v[6]]);
       } else if (v[4] == v[5] && v[4] == v[6] && v[4] == v[7]) {  // pyramid_as_hex
         for (int k = 0; k < 4; ++k)
-          detail::add_corner_gradient(xyz, val, v[4], v[k], v[(k + 1) % 4], v[(k + 3) % 4], 1.0, g + 3 * v[4],
-                                      weight[v[4]]);
+          add_corner_gradient(xyz, val, v[4], v[k], v[(k + 1) % 4], v[(k + 3) % 4], 1.0, g + 3 * v[4], weight[v[4]]);
       }
     }
   }
-  for (uint64_t i = 0; i < nv; ++i)
-    for (int a = 0; a < 3; ++a) g[3 * i + uint64_t(a)] = weight[i] > 0.f ? g[3 * i + uint64_t(a)] / weight[i] : qnan;
+}
+
+/// Cells per part of a parallel vertex-gradient pass, and at most how many
+/// parts: the second accumulates into buffers of its own (16 bytes per
+/// vertex while building). Two, not more: 4 parts were 1.2x slower on one
+/// thread (component8: the sums of the extra buffers), 2 cost it nothing.
+inline constexpr uint64_t gradient_part_cells = uint64_t(1) << 15;
+inline constexpr uint64_t gradient_max_parts = 2;
+
+}  // namespace detail
+
+/// Builds the per-vertex gradients of `mesh`'s active array. The cells are
+/// cut into two ranges when there are 64K or more (by their count alone),
+/// accumulated in parallel, each straight into a buffer of its own (no
+/// per-cell or per-corner scratch: first-touch page faults, not
+/// arithmetic, were most of the cost of a parallel version with a
+/// vertex-to-corner list), then summed per vertex in range order: the same
+/// bits on any number of threads. Vertex ids must be valid (validate()
+/// first). Thread-safe.
+template <int N> VertexGradients build_vertex_gradients(CellMesh<N> const& mesh) {
+  uint64_t const nv = mesh.vertex_count(), nc = mesh.cell_count();
+  VertexGradients out;
+  constexpr float qnan = std::numeric_limits<float>::quiet_NaN();
+  if (!mesh.has_values() || nc == 0) {
+    out.g_.assign(3 * nv, qnan);
+    return out;
+  }
+  uint64_t const parts = std::clamp<uint64_t>(nc / detail::gradient_part_cells, 1, detail::gradient_max_parts);
+  // Part 0 accumulates into the result; parts 1.. into buffers of their own,
+  // allocated and zeroed by the task that fills them.
+  std::vector<std::vector<float>> g_more(parts - 1), w_more(parts - 1);
+  std::vector<float> weight;
+  auto accumulate = [&](uint64_t part) {
+    uint64_t const begin = nc * part / parts, end = nc * (part + 1) / parts;
+    std::vector<float>& g = part == 0 ? out.g_ : g_more[part - 1];
+    std::vector<float>& w = part == 0 ? weight : w_more[part - 1];
+    g.assign(3 * nv, 0.f);
+    w.assign(nv, 0.f);
+    detail::accumulate_vertex_gradients(mesh, begin, end, g.data(), w.data());
+  };
+  if (parts == 1) {
+    accumulate(0);
+  } else {
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, parts, 1), [&](tbb::blocked_range<uint64_t> const& r) {
+      for (uint64_t part = r.begin(); part != r.end(); ++part) accumulate(part);
+    });
+  }
+  float* g = out.g_.data();
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nv, 1 << 14), [&](tbb::blocked_range<uint64_t> const& r) {
+    for (uint64_t i = r.begin(); i != r.end(); ++i) {
+      float w = weight[i];
+      for (uint64_t part = 1; part < parts; ++part) {
+        w += w_more[part - 1][i];
+        for (int a = 0; a < 3; ++a) g[3 * i + uint64_t(a)] += g_more[part - 1][3 * i + uint64_t(a)];
+      }
+      for (int a = 0; a < 3; ++a) g[3 * i + uint64_t(a)] = w > 0.f ? g[3 * i + uint64_t(a)] / w : qnan;
+    }
+  });
   return out;
 }
 
