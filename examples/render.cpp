@@ -839,10 +839,10 @@ int run(Options const& o) {
   // comes sooner (component8 iso 115-142 against 162-209 ms). Frames
   // rendered again and again repay the SAH build (docs/cli.md).
   bool const one_image = o.frames == 1 && o.orbit <= 1;
-  std::string const builder = o.builder == "auto" ? (one_image ? "morton" : "binned_sah") : o.builder;
-  bo.builder = (builder == "spatial_median" || builder == "median") ? BvhBuilder::spatial_median
-               : builder == "morton"                               ? BvhBuilder::morton
-                                                                   : BvhBuilder::binned_sah;
+  if (o.builder == "auto") bo.builder = one_image ? BvhBuilder::morton : BvhBuilder::binned_sah;
+  else if (o.builder == "spatial_median" || o.builder == "median") bo.builder = BvhBuilder::spatial_median;
+  else if (o.builder == "morton") bo.builder = BvhBuilder::morton;
+  else bo.builder = BvhBuilder::binned_sah;  // binned_sah, sah
   bo.max_leaf_size = uint32_t(o.leaf_size);
   bo.isa = isa;
   std::optional<glm::vec4> background;
