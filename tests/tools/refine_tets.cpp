@@ -55,14 +55,17 @@ void refine(cellray::UnstructuredGrid const& g, std::string const& out_path) {
   if (4 * nt > uint64_t(std::numeric_limits<int32_t>::max()) / 5 ||
       nv + nt > uint64_t(std::numeric_limits<int32_t>::max()))
     throw std::runtime_error("too many cells for a legacy file's 32-bit CELLS list");
+  // The mean over tet c's corners of value(vertex id), in double.
+  auto corner_mean = [&g](uint64_t c, auto const& value) {
+    double sum = 0;
+    for (int k = 0; k < 4; ++k) sum += value(g.tets[4 * c + uint64_t(k)]);
+    return float(sum / 4);
+  };
   std::vector<float> xyz(g.xyz);
   xyz.resize(3 * (nv + nt));
   for (uint64_t c = 0; c < nt; ++c)
-    for (int a = 0; a < 3; ++a) {
-      double sum = 0;
-      for (int k = 0; k < 4; ++k) sum += g.xyz[3 * g.tets[4 * c + uint64_t(k)] + uint64_t(a)];
-      xyz[3 * (nv + c) + uint64_t(a)] = float(sum / 4);
-    }
+    for (uint64_t a = 0; a < 3; ++a)
+      xyz[3 * (nv + c) + a] = corner_mean(c, [&](uint64_t v) { return g.xyz[3 * v + a]; });
   std::vector<int32_t> cells;  // count, then ids, per cell
   cells.reserve(4 * nt * 5);
   for (uint64_t c = 0; c < nt; ++c)
@@ -84,11 +87,7 @@ void refine(cellray::UnstructuredGrid const& g, std::string const& out_path) {
   for (auto const& a : g.point_arrays) {
     std::vector<float> v(a.values);
     v.resize(nv + nt);
-    for (uint64_t c = 0; c < nt; ++c) {
-      double sum = 0;
-      for (int k = 0; k < 4; ++k) sum += a.values[g.tets[4 * c + uint64_t(k)]];
-      v[nv + c] = float(sum / 4);
-    }
+    for (uint64_t c = 0; c < nt; ++c) v[nv + c] = corner_mean(c, [&](uint64_t i) { return a.values[i]; });
     out.text("SCALARS " + a.name + " float 1\nLOOKUP_TABLE default\n");
     out.words(v);
     out.text("\n");
