@@ -24,7 +24,10 @@
 // and the properties
 //   linear_on_ray             the field is linear on every ray (one gradient a cell)
 //   keeps_param               hits and located points keep cell coordinates
-//   march_reuses_corners      a march's next cell shares a face's corners
+//   march_reuses_corners      a march's next cell shares a face's corners; then
+//                             also march_clip_onward(r, c, lanes, entry, t_in,
+//                             s_in, inv_dd, exit_face&): the clip from the face
+//                             the march entered through
 //   occlusion_in_pairs        grouped occlusion clips (cell, ray) pairs
 //   holds_folded_tets         some cells may be tets stored as this type; then also
 //                             is_folded_tet(keys), broadcast_folded_tet(xyz, k) -> FoldedTet,

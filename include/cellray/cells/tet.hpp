@@ -270,6 +270,69 @@ inline CellClip<A> clip_tet_window(RayBatch<A> const& ray, CellCorners<A, 4> con
   return r;
 }
 
+/// A march's clip of the tet a lane entered through face `entry` (the face
+/// opposite corner `entry`) at t_in with value s_in, both carried from the
+/// last cell's exit: only the exit is found, with Plücker tests (Marmitt and
+/// Slusallek 2006). Per edge i < j of the corners (ascending ids, so two
+/// cells sharing the edge compute the same bits), pi_ij = d . ((p_i - o) x
+/// (p_j - o)), the side of the edge the line passes. It crosses face (i, j,
+/// k) where pi_jk, -pi_ik and pi_ij share a sign, at barycentric weights
+/// proportional to them: the exit t and value then need one division,
+/// where clip_tet_window's four planes and two face crossings take eight.
+/// Its neighbour finds the line entering through the face on the same edge
+/// products, so a march cannot slip between cells at a shared edge.
+/// `exit_face` gets the lowest crossed face other than `entry`; `hit` is
+/// false where there is none (the line through an edge or vertex, or a
+/// flat tet): the march then asks the tree. t_out may lie before t_in
+/// after rounding; the march checks progress. `inv_dd` = 1 / (d . d).
+template <class A>
+CELLRAY_FORCE_INLINE CellClip<A> clip_tet_onward(RayBatch<A> const& ray, CellCorners<A, 4> const& c,
+                                                 vmask<A> const& lanes, vint<A> const& entry, vfloat<A> const& t_in,
+                                                 vfloat<A> const& s_in, vfloat<A> const& inv_dd, vint<A>& exit_face) {
+  vfloat<A> const zero(0.f);
+  Vec3<A> const o = ray.origin(), d = ray.dir();
+  Vec3<A> q[4], m[4];
+  vfloat<A> along[4];  // (p_i - o) . d: t of corner i's projection onto the line, times d . d
+  for (int i = 0; i < 4; ++i) {
+    q[i] = c.p(i) - o;
+    m[i] = cross(d, q[i]);
+    along[i] = dot(q[i], d);
+  }
+  // d . (q_i x q_j) = (d x q_i) . q_j
+  vfloat<A> const p01 = dot(m[0], q[1]), p02 = dot(m[0], q[2]), p03 = dot(m[0], q[3]);
+  vfloat<A> const p12 = dot(m[1], q[2]), p13 = dot(m[1], q[3]), p23 = dot(m[2], q[3]);
+  // Face f's corner weights (corner f's is 0).
+  vfloat<A> const w[4][4] = {{zero, p23, -p13, p12}, {p23, zero, -p03, p02}, {p13, -p03, zero, p01}, {p12, -p02, p01, zero}};
+  vmaski<A> chosen_any = simd::to_int_mask(simd::no_lanes<A>());
+  vfloat<A> wc[4] = {zero, zero, zero, zero};
+  vint<A> face(0);
+  for (int f = 3; f >= 0; --f) {  // the lowest crossed face wins
+    vfloat<A> lo = w[f][f == 0 ? 1 : 0], hi = lo, sum = zero;
+    for (int i = 0; i < 4; ++i)
+      if (i != f) lo = simd::min(lo, w[f][i]), hi = simd::max(hi, w[f][i]), sum = sum + w[f][i];
+    // One sign, and not all zero (a line in the face's plane) nor NaN.
+    vmask<A> const crossed = (lo >= zero && sum > zero) || (hi <= zero && sum < zero);
+    vmaski<A> const take = simd::to_int_mask(crossed) && !(entry == vint<A>(f));
+    vmask<A> const tf = simd::to_float_mask(take);
+    for (int i = 0; i < 4; ++i) wc[i] = simd::select(tf, w[f][i], wc[i]);
+    face = simd::select(take, vint<A>(f), face);
+    chosen_any = chosen_any || take;
+  }
+  vfloat<A> const sum = (wc[0] + wc[1]) + (wc[2] + wc[3]);
+  vmask<A> const found = lanes && simd::to_float_mask(chosen_any);
+  vfloat<A> const inv = vfloat<A>(1.f) / simd::select(found, sum, vfloat<A>(1.f));
+  CellClip<A> r;
+  r.t_in = t_in, r.s_in = s_in;
+  r.t_out = ((wc[0] * along[0] + wc[1] * along[1]) + (wc[2] * along[2] + wc[3] * along[3])) * (inv * inv_dd);
+  // The face's own corners only: a NaN at the corner off it stays out.
+  vfloat<A> sv[4];
+  for (int i = 0; i < 4; ++i) sv[i] = simd::select(simd::to_float_mask(face == vint<A>(i)), zero, c.s[i]);
+  r.s_out = ((wc[0] * sv[0] + wc[1] * sv[1]) + (wc[2] * sv[2] + wc[3] * sv[3])) * inv;
+  r.hit = found;
+  exit_face = face;
+  return r;
+}
+
 /// Ray clip against one tet per lane (see clip_tet_window, with every lane
 /// and the whole line).
 template <class A> inline CellClip<A> clip_tet(RayBatch<A> const& ray, CellCorners<A, 4> const& c) {
@@ -403,8 +466,14 @@ template <class A> struct CellOps<A, 4> {
     return clip_window(r, c, lanes, t_lo, t_hi, exit_face);
   }
   /// A march's next cell shares a face's corners with the last one: the
-  /// march gathers only the one it does not share (CellMarch::next_corners).
+  /// march gathers only the one it does not share (CellMarch::next_corners)
+  /// and clips onward from the face it entered through.
   static constexpr bool march_reuses_corners = true;
+  CELLRAY_FORCE_INLINE static Clip march_clip_onward(RayBatch<A> const& r, CellCorners<A, 4> const& c, vmask<A> const& lanes,
+                                vint<A> const& entry, vfloat<A> const& t_in, vfloat<A> const& s_in,
+                                vfloat<A> const& inv_dd, vint<A>& exit_face) {
+    return clip_tet_onward(r, c, lanes, entry, t_in, s_in, inv_dd, exit_face);
+  }
   /// Grouped occlusion queries clip (cell, ray) pairs, W per kernel call,
   /// instead of each cell against every packet that meets it: a tet's clip
   /// is cheap against its broadcast (TetPairs in occlusion.hpp, tets only).

@@ -72,19 +72,21 @@ inline void traverse_query(TreeView const& tree, RayPacket<A> const& r, vmask<A>
 /// Per lane, the visible cell the ray is in or enters first after `lo`: the
 /// smallest t_in of the cells whose clip interval ends past lo (strictly, so
 /// a march from it progresses) and starts by `hi`, with no NaN corner value
-/// and field values along the ray that meet a value window. -1: none.
+/// and field values along the ray that meet a value window, other than
+/// `skip` (the cell the lane has just left, or -1). -1: none.
 template <class A, int N> struct FirstCellQuery {
   TreeView const* tree_;
   CellMesh<N> const* mesh_;
   RayPacket<A> const& r;
   ValueWindows const& windows;
   vfloat<A> lo, hi;
+  vint<A> skip;
   vfloat<A> best_t = vfloat<A>(std::numeric_limits<float>::infinity());  ///< t_in of `cell`
   vint<A> cell = vint<A>(-1);
 
   FirstCellQuery(TreeView const& t, CellMesh<N> const& m, RayPacket<A> const& rays, ValueWindows const& w,
-                 vfloat<A> const& t_lo, vfloat<A> const& t_hi)
-      : tree_(&t), mesh_(&m), r(rays), windows(w), lo(t_lo), hi(t_hi) {}
+                 vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A> const& skip_cell = vint<A>(-1))
+      : tree_(&t), mesh_(&m), r(rays), windows(w), lo(t_lo), hi(t_hi), skip(skip_cell) {}
   TreeView const& tree() const { return *tree_; }
 
   bool done() const { return false; }
@@ -95,7 +97,7 @@ template <class A, int N> struct FirstCellQuery {
 
   void visit(CellCorners<A, N> const& c, vmask<A> const& m, vint<A> const& cells) {
     auto const k = CellOps<A, N>::march_clip_window(ray_batch(r), c, m, lo, t_hi(), nullptr);
-    vmask<A> ok = k.hit && k.t_out > lo && k.t_in < best_t && !has_nan_value(c);
+    vmask<A> ok = k.hit && k.t_out > lo && k.t_in < best_t && !has_nan_value(c) && simd::to_float_mask(!(cells == skip));
     if (simd::none(ok)) return;
     ok = ok && visible_values<A, N>(windows, c, k);
     best_t = simd::select(ok, k.t_in, best_t);
@@ -137,6 +139,12 @@ template <class A, int N> struct CellMarch {
   vfloat<A> t_end;  ///< per lane: where it stops
   vint<A> cell = vint<A>(-1);  ///< the cell the lane steps through next; -1: locate first
   vint<A> faint = vint<A>(0);  ///< cells in a row without a visible segment
+  /// The cell each lane left for the tree (through a boundary face or after
+  /// `max_faint` faint cells; -1 after a step without progress): its locate
+  /// skips it. A line crosses a cell once, but an onward clip's exit t
+  /// (CellOps::march_clip_onward) may round a little short of the cell's
+  /// own clip, which would find the cell again and step it twice.
+  vint<A> left = vint<A>(-1);
   /// t at each lane's last locate: a lane that needs another at the same t
   /// cannot progress (a defensive end; the clip of the located cell
   /// progresses by construction, see FirstCellQuery).
@@ -145,7 +153,17 @@ template <class A, int N> struct CellMarch {
   /// the next locate): a lane's next cell shares three of them.
   CellCorners<A, N> last;
   vint<A> last_exit = vint<A>(0);  ///< tets: the face each lane left its last cell through
-  bool last_valid = false;
+  vfloat<A> last_s_out;            ///< tets: the value where each lane left it
+  /// The neighbour across each lane's last exit (0 where none), which is
+  /// `cell` in the lanes that go on: while `follow`, a step gathers from it
+  /// (see step).
+  vint<A> ahead = vint<A>(0);
+  /// Every lane with a cell went on to it from its own last step (false
+  /// after a locate, or when lanes arrive from a mixed mesh's other part).
+  bool follow = false;
+  /// 1 / (d . d) per lane: the onward clip's t (CellOps::march_clip_onward).
+  vfloat<A> const inv_dd = vfloat<A>(1.f) / dot(ray_batch(r).dir(), ray_batch(r).dir());
+  bool last_valid = false;  ///< tets: `last` holds each lane's last cell, and follow
   /// next_corners applies: a type that shares a face's corners with its
   /// neighbour (tets), 32-bit indices whose ids are the corners' keys.
   bool const reuse_ok = CellOps<A, N>::march_reuses_corners && mesh.has_32bit_indices() &&
@@ -173,13 +191,13 @@ template <class A, int N> struct CellMarch {
   vmask<A> locate(vmask<A> const& need, Traversal how, int threshold) {
     vmask<A> const stuck = need && t == located_at;
     vmask<A> const ask = need && !stuck;
-    FirstCellQuery<A, N> q(tree, mesh, r, windows, t, t_end);
+    FirstCellQuery<A, N> q(tree, mesh, r, windows, t, t_end, left);
     traverse_query<A>(tree, r, ask, q, how, threshold);
     vmask<A> const found = ask && simd::to_float_mask(q.cell >= vint<A>(0));
     cell = simd::select(simd::to_int_mask(found), q.cell, cell);
     faint = simd::select(simd::to_int_mask(found), vint<A>(0), faint);
     located_at = simd::select(ask, t, located_at);
-    last_valid = false;
+    last_valid = follow = false;
     return need && !found;
   }
 
@@ -192,11 +210,22 @@ template <class A, int N> struct CellMarch {
     Step s;
     vint<A> exit_face(0);
     using Ops = CellOps<A, N>;
-    if constexpr (Ops::march_reuses_corners)
-      s.c = last_valid ? next_corners(lanes) : gather_corners<A, N>(mesh, cell, lanes);
-    else
-      s.c = gather_corners<A, N>(mesh, cell, lanes);
-    s.k = Ops::march_clip_window(ray_batch(r), s.c, lanes, t, t_end, &exit_face);
+    bool onward = false;
+    if constexpr (Ops::march_reuses_corners) {
+      onward = last_valid;
+      if (onward) {
+        vint<A> entry;
+        s.c = next_corners(entry);
+        s.k = Ops::march_clip_onward(ray_batch(r), s.c, lanes, entry, t, last_s_out, inv_dd, exit_face);
+      }
+    }
+    // The cells' addresses, from the last step where it holds them for
+    // every lane (see below).
+    vint<A> const at = follow ? ahead : simd::select(simd::to_int_mask(lanes), cell, vint<A>(0));
+    if (!onward) {
+      s.c = gather_corners<A, N>(mesh, at, simd::all_lanes<A>());
+      s.k = Ops::march_clip_window(ray_batch(r), s.c, lanes, t, t_end, &exit_face);
+    }
     // A field linear on every ray has one gradient per cell.
     if constexpr (Ops::linear_on_ray)
       if (want_gradient) s.gradient = Ops::gradient_at(s.c, Vec3<A>{});
@@ -205,13 +234,18 @@ template <class A, int N> struct CellMarch {
     s.a = simd::max(s.k.t_in, t), s.e = simd::min(s.k.t_out, t_end);
     s.visible = progress && s.e > s.a && !has_nan_value(c) && visible_values<A, N>(windows, c, s.k);
     vmaski<A> const pi = simd::to_int_mask(progress);
-    vint<A> const slot = simd::select(pi, cell * vint<A>(faces) + exit_face, vint<A>(0));
-    vint<A> const next = simd::gather(across, slot);
+    // The neighbour's address depends on the exit face alone, not on
+    // whether the lane goes on: the next step's gathers then need not wait
+    // for this step's t and values, nor for its integration (component8
+    // DVR, with the onward clip: 1.06x).
+    vint<A> const next = simd::gather(across, at * vint<A>(faces) + exit_face);
     faint = simd::select(simd::to_int_mask(s.visible), vint<A>(0), faint + vint<A>(1));
     t = simd::select(progress, s.e, t);
     vmaski<A> const go_on = pi && faint <= vint<A>(max_faint);
+    left = simd::select(simd::to_int_mask(lanes), simd::select(pi, cell, vint<A>(-1)), left);
     cell = simd::select(simd::to_int_mask(lanes), simd::select(go_on, next, vint<A>(-1)), cell);
-    if constexpr (Ops::march_reuses_corners) last = c, last_exit = exit_face, last_valid = reuse_ok;
+    ahead = simd::select(next < vint<A>(0), vint<A>(0), next), follow = true;
+    if constexpr (Ops::march_reuses_corners) last = c, last_exit = exit_face, last_s_out = s.k.s_out, last_valid = reuse_ok;
     return s;
   }
 
@@ -222,11 +256,12 @@ template <class A, int N> struct CellMarch {
   /// share), its position and value the only ones gathered (4 gathers
   /// instead of 16), and it goes where its id sorts among the three. The
   /// same corners, bit for bit, as gather_corners (equal ids: the same
-  /// vertex, wherever it sorts).
-  CellCorners<A, 4> next_corners(vmask<A> const& lanes) const {
+  /// vertex, wherever it sorts). `entry` gets the index of the face the
+  /// lane enters through: the one opposite the unshared corner.
+  CellCorners<A, 4> next_corners(vint<A>& entry) const {
     static_assert(N == 4);
     CellCorners<A, 4> c;
-    vint<A> const cl = simd::select(simd::to_int_mask(lanes), cell, vint<A>(0));
+    vint<A> const& cl = ahead;  // == cell in `lanes`
     auto const* idx = reinterpret_cast<int32_t const*>(mesh.indices32());
     vint<A> fresh_id(0);
     for (int i = 0; i < 4; ++i) fresh_id = fresh_id ^ simd::gather(idx, cl * vint<A>(4) + vint<A>(i));
@@ -241,12 +276,12 @@ template <class A, int N> struct CellMarch {
       sz[k] = simd::select(af, last.z[k + 1], last.z[k]), ss[k] = simd::select(af, last.s[k + 1], last.s[k]);
       fresh_id = fresh_id ^ sid[k];
     }
-    // Lanes outside `lanes` xor another cell's ids with stale corners, and
-    // so would neighbours that do not fit the mesh (FaceNeighbours::fits
-    // samples it): vertex 0 there, wrong pixels at worst, never a read
-    // outside the arrays.
+    // Lanes outside `lanes` xor another cell's ids with stale corners (no
+    // mask: the gathers' addresses do not wait for the lanes), and so would
+    // neighbours that do not fit the mesh (FaceNeighbours::fits samples it):
+    // vertex 0 there, wrong pixels at worst, never a read outside the arrays.
     vint<A> const last_vertex(int32_t(mesh.vertex_count() - 1));  // reuse_ok: < 2^31 vertices
-    vmaski<A> const readable = simd::to_int_mask(lanes) && fresh_id >= vint<A>(0) && fresh_id <= last_vertex;
+    vmaski<A> const readable = fresh_id >= vint<A>(0) && fresh_id <= last_vertex;
     fresh_id = simd::select(readable, fresh_id, vint<A>(0));
     float const* xyz = mesh.positions();
     float const* val = mesh.values();
@@ -267,6 +302,8 @@ template <class A, int N> struct CellMarch {
     auto as_int = [](vmaski<A> const& m) { return m; };
     auto as_float = [](vmaski<A> const& m) { return simd::to_float_mask(m); };
     place(c.id, sid, fresh_id, as_int);
+    vint<A> const one(1), zero(0);
+    entry = (simd::select(before[0], one, zero) + simd::select(before[1], one, zero)) + simd::select(before[2], one, zero);
     place(c.x, sx, fx, as_float), place(c.y, sy, fy, as_float), place(c.z, sz, fz, as_float), place(c.s, ss, fs, as_float);
     return c;
   }
@@ -309,9 +346,10 @@ template <class A> struct MixedMarch {
   vmask<A> locate(vmask<A> const& need, Traversal how, int threshold) {
     vmask<A> const stuck = need && t == located_at;
     vmask<A> const ask = need && !stuck;
-    FirstCellQuery<A, 4> qt(tets.tree, tets.mesh, tets.r, tets.windows, t, tets.t_end);
+    FirstCellQuery<A, 4> qt(tets.tree, tets.mesh, tets.r, tets.windows, t, tets.t_end, tets.left);
     traverse_query<A>(tets.tree, tets.r, ask, qt, how, threshold);
-    FirstCellQuery<A, 8> qh(hexes.tree, hexes.mesh, hexes.r, hexes.windows, t, simd::min(tets.t_end, qt.best_t));
+    FirstCellQuery<A, 8> qh(hexes.tree, hexes.mesh, hexes.r, hexes.windows, t, simd::min(tets.t_end, qt.best_t),
+                            hexes.left);
     traverse_query<A>(hexes.tree, hexes.r, ask, qh, how, threshold);
     vmask<A> const found_tet = ask && simd::to_float_mask(qt.cell >= vint<A>(0));
     vmask<A> const found_hex = ask && simd::to_float_mask(qh.cell >= vint<A>(0)) && (!found_tet || qh.best_t < qt.best_t);
@@ -321,7 +359,7 @@ template <class A> struct MixedMarch {
     vmaski<A> const found = simd::to_int_mask(in_tet || found_hex);
     tets.faint = hexes.faint = simd::select(found, vint<A>(0), tets.faint);
     located_at = simd::select(ask, t, located_at);
-    tets.last_valid = false;
+    tets.last_valid = tets.follow = hexes.follow = false;
     return need && !(in_tet || found_hex);
   }
 
@@ -348,7 +386,9 @@ template <class A> struct MixedMarch {
     vint<A> const next_hex = simd::select(to_hex, minus_two - tets.cell, simd::select(to_tet, vint<A>(-1), hexes.cell));
     tets.cell = simd::select(to_tet, minus_two - hexes.cell, simd::select(to_hex, vint<A>(-1), tets.cell));
     hexes.cell = next_hex;
-    if (simd::any(simd::to_float_mask(to_tet))) tets.last_valid = false;  // next_corners needs the lane's last tet
+    // next_corners needs the lane's last tet, and `ahead` its own last step.
+    if (simd::any(simd::to_float_mask(to_tet))) tets.last_valid = tets.follow = false;
+    if (simd::any(simd::to_float_mask(to_hex))) hexes.follow = false;
     return s;
   }
 };
