@@ -303,20 +303,45 @@ CELLRAY_FORCE_INLINE CellClip<A> clip_tet_onward(RayBatch<A> const& ray, CellCor
   vfloat<A> const p12 = dot(m[1], q[2]), p13 = dot(m[1], q[3]), p23 = dot(m[2], q[3]);
   // Face f's corner weights (corner f's is 0).
   vfloat<A> const w[4][4] = {{zero, p23, -p13, p12}, {p23, zero, -p03, p02}, {p13, -p03, zero, p01}, {p12, -p02, p01, zero}};
-  vmaski<A> chosen_any = simd::to_int_mask(simd::no_lanes<A>());
-  vfloat<A> wc[4] = {zero, zero, zero, zero};
-  vint<A> face(0);
-  for (int f = 3; f >= 0; --f) {  // the lowest crossed face wins
+  vmaski<A> take[4];
+  vfloat<A> face_sum[4];
+  vint<A> crossings(0);
+  for (int f = 0; f < 4; ++f) {
     vfloat<A> lo = w[f][f == 0 ? 1 : 0], hi = lo, sum = zero;
     for (int i = 0; i < 4; ++i)
       if (i != f) lo = simd::min(lo, w[f][i]), hi = simd::max(hi, w[f][i]), sum = sum + w[f][i];
     // One sign, and not all zero (a line in the face's plane) nor NaN.
     vmask<A> const crossed = (lo >= zero && sum > zero) || (hi <= zero && sum < zero);
-    vmaski<A> const take = simd::to_int_mask(crossed) && !(entry == vint<A>(f));
-    vmask<A> const tf = simd::to_float_mask(take);
+    take[f] = simd::to_int_mask(crossed) && !(entry == vint<A>(f));
+    face_sum[f] = sum;
+    crossings = crossings + simd::select(take[f], vint<A>(1), vint<A>(0));
+  }
+  // A line through an edge or a corner of the cell (some products zero)
+  // passes the test on every face that meets there: the exit is then the
+  // crossing furthest along the line. Else the one crossed face.
+  vmaski<A> const several = crossings > vint<A>(1);
+  if (CELLRAY_UNLIKELY(simd::any(simd::to_float_mask(several)))) {
+    vfloat<A> best(-std::numeric_limits<float>::infinity());
+    vmaski<A> const none = simd::to_int_mask(simd::no_lanes<A>());
+    vmaski<A> kept[4] = {none, none, none, none};
+    for (int f = 0; f < 4; ++f) {
+      vfloat<A> const t_f =
+          ((w[f][0] * along[0] + w[f][1] * along[1]) + (w[f][2] * along[2] + w[f][3] * along[3])) / face_sum[f];
+      vmaski<A> const further = take[f] && simd::to_int_mask(t_f > best);
+      best = simd::select(simd::to_float_mask(further), t_f, best);
+      for (int g = 0; g < f; ++g) kept[g] = kept[g] && !further;
+      kept[f] = further;
+    }
+    for (int f = 0; f < 4; ++f) take[f] = (several && kept[f]) || (!several && take[f]);
+  }
+  vmaski<A> chosen_any = simd::to_int_mask(simd::no_lanes<A>());
+  vfloat<A> wc[4] = {zero, zero, zero, zero};
+  vint<A> face(0);
+  for (int f = 3; f >= 0; --f) {  // one face per lane now; the lowest on a tie in t
+    vmask<A> const tf = simd::to_float_mask(take[f]);
     for (int i = 0; i < 4; ++i) wc[i] = simd::select(tf, w[f][i], wc[i]);
-    face = simd::select(take, vint<A>(f), face);
-    chosen_any = chosen_any || take;
+    face = simd::select(take[f], vint<A>(f), face);
+    chosen_any = chosen_any || take[f];
   }
   vfloat<A> const sum = (wc[0] + wc[1]) + (wc[2] + wc[3]);
   vmask<A> const found = lanes && simd::to_float_mask(chosen_any);
