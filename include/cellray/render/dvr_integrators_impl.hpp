@@ -100,10 +100,13 @@ CELLRAY_FORCE_INLINE void shade_batch(DvrShading const& sh, float inv_gradient_f
 /// The transfer function over a piece of length `d` whose midpoint value is
 /// `v`, per lane: colour from the table (linear in between) and opacity
 /// 1 - exp(d ln(transmittance per unit length)); a NaN value is transparent.
+/// Forced inline: GCC 12 called it out of line in the tet march once the
+/// onward clip was inlined there (component8 DVR 1.06-1.07x inlined).
 template <class A> struct PieceColor {
   vfloat<A> r, g, b, a;
 };
-template <class A> inline PieceColor<A> piece_color(PreparedTf const& ptf, vfloat<A> const& v, vfloat<A> const& d) {
+template <class A>
+CELLRAY_FORCE_INLINE PieceColor<A> piece_color(PreparedTf const& ptf, vfloat<A> const& v, vfloat<A> const& d) {
   vfloat<A> const lo(ptf.lo), scale(ptf.scale), zero(0.f), one(1.f);
   vfloat<A> const last(float(ptf.r.size() - 1) - 1e-3f);
   vmask<A> const ok = !simd::isnan(v);
