@@ -18,8 +18,10 @@
 //
 // The segments are the packet clip's up to rounding (CellOps::
 // march_clip_window: the same kernel, but for parallelepipeds, which a
-// march clips as slabs in the cell's own coordinates, not face by face), so
-// a march integrates what a traversal would, cell for cell. A march goes on
+// march clips as slabs in the cell's own coordinates, not face by face; and
+// a tet after the first, which it clips onward from the face it entered by,
+// CellOps::march_clip_onward), so a march integrates what a traversal
+// would, cell for cell. A march goes on
 // from where the last cell ended (a piece starts at max(t_in, t)), so faces
 // seen from two sides need not agree bit for bit; the locate clips with the
 // march's clip, so a located cell always lets its lane progress. A hex
