@@ -273,28 +273,31 @@ inline CellClip<A> clip_tet_window(RayBatch<A> const& ray, CellCorners<A, 4> con
 /// A march's clip of the tet a lane entered through face `entry` (the face
 /// opposite corner `entry`) at t_in with value s_in, both carried from the
 /// last cell's exit: only the exit is found, with Plücker tests (Marmitt and
-/// Slusallek 2006). Per edge i < j of the corners (ascending ids, so two
-/// cells sharing the edge compute the same bits), pi_ij = d . ((p_i - o) x
-/// (p_j - o)), the side of the edge the line passes. It crosses face (i, j,
-/// k) where pi_jk, -pi_ik and pi_ij share a sign, at barycentric weights
+/// Slusallek 2006). Per edge i < j of the corners, pi_ij = d . ((p_i - e) x
+/// (p_j - e)), the side of the edge the line passes, taken about the entry
+/// point e = o + t_in d: about the ray's origin, products of distances to
+/// the camera cancel, and a boundary layer's thin cells seen from afar got
+/// exit values 1e-3 of the range off. The line crosses face (i, j, k)
+/// where pi_jk, -pi_ik and pi_ij share a sign, at barycentric weights
 /// proportional to them: the exit t and value then need one division,
 /// where clip_tet_window's four planes and two face crossings take eight.
-/// Its neighbour finds the line entering through the face on the same edge
-/// products, so a march cannot slip between cells at a shared edge.
-/// `exit_face` gets the lowest crossed face other than `entry`; `hit` is
-/// false where there is none (the line through an edge or vertex, or a
-/// flat tet): the march then asks the tree. t_out may lie before t_in
-/// after rounding; the march checks progress. `inv_dd` = 1 / (d . d).
+/// `exit_face` gets the crossed face other than `entry`; where the test
+/// passes on several (the line through an edge or corner) the crossing
+/// furthest along the line. `hit` is false where none passes (a line that
+/// only touches the cell, or a flat tet): the march then asks the tree.
+/// t_out may lie before t_in after rounding; the march checks progress.
+/// `inv_dd` = 1 / (d . d).
 template <class A>
 CELLRAY_FORCE_INLINE CellClip<A> clip_tet_onward(RayBatch<A> const& ray, CellCorners<A, 4> const& c,
                                                  vmask<A> const& lanes, vint<A> const& entry, vfloat<A> const& t_in,
                                                  vfloat<A> const& s_in, vfloat<A> const& inv_dd, vint<A>& exit_face) {
   vfloat<A> const zero(0.f);
-  Vec3<A> const o = ray.origin(), d = ray.dir();
+  Vec3<A> const d = ray.dir();
+  Vec3<A> const e = ray.origin() + t_in * d;
   Vec3<A> q[4], m[4];
-  vfloat<A> along[4];  // (p_i - o) . d: t of corner i's projection onto the line, times d . d
+  vfloat<A> along[4];  // (p_i - e) . d: t - t_in of corner i's projection onto the line, times d . d
   for (int i = 0; i < 4; ++i) {
-    q[i] = c.p(i) - o;
+    q[i] = c.p(i) - e;
     m[i] = cross(d, q[i]);
     along[i] = dot(q[i], d);
   }
@@ -348,7 +351,7 @@ CELLRAY_FORCE_INLINE CellClip<A> clip_tet_onward(RayBatch<A> const& ray, CellCor
   vfloat<A> const inv = vfloat<A>(1.f) / simd::select(found, sum, vfloat<A>(1.f));
   CellClip<A> r;
   r.t_in = t_in, r.s_in = s_in;
-  r.t_out = ((wc[0] * along[0] + wc[1] * along[1]) + (wc[2] * along[2] + wc[3] * along[3])) * (inv * inv_dd);
+  r.t_out = t_in + ((wc[0] * along[0] + wc[1] * along[1]) + (wc[2] * along[2] + wc[3] * along[3])) * (inv * inv_dd);
   // The face's own corners only: a NaN at the corner off it stays out.
   vfloat<A> sv[4];
   for (int i = 0; i < 4; ++i) sv[i] = simd::select(simd::to_float_mask(face == vint<A>(i)), zero, c.s[i]);
