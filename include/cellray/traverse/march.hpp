@@ -237,13 +237,12 @@ template <class A, int N> struct CellMarch {
       if (want_gradient) s.gradient = Ops::gradient_at(s.c, Vec3<A>{});
     CellCorners<A, N> const& c = s.c;
     vmask<A> const progress = s.k.hit && s.k.t_out > t;
-    // An onward clip found the exit face on edge signs its neighbour shares,
-    // but its t comes from other faces' weights than the entry's: a line
-    // through a cell close to an edge or vertex can leave before it entered
-    // by rounding. Such a lane goes on across the face with nothing to
-    // integrate, at most `max_stalled` cells in a row, rather than ask the
-    // tree (it would wait for its whole packet: the 2.4M-tet DVR frame
-    // was 1.2x slower so).
+    // An onward clip takes t at the exit from the exit face's weights, t at
+    // the entry from the last cell's: a line through a cell close to an
+    // edge or vertex can leave before it entered after rounding. Such a
+    // lane goes on across the exit face with nothing to integrate, at most
+    // `max_stalled` cells in a row, rather than ask the tree (it would wait
+    // for its whole packet: the 2.4M-tet DVR frame was 1.2x slower so).
     stalled = simd::select(simd::to_int_mask(progress), vint<A>(0), stalled + vint<A>(1));
     vmask<A> moves = progress;
     if (onward) moves = s.k.hit && (progress || simd::to_float_mask(stalled <= vint<A>(max_stalled)));
