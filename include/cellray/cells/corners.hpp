@@ -236,10 +236,11 @@ template <class A, int N> inline CellCorners<A, N> broadcast_corners(CellMesh<N>
 /// cell 0 (the mesh must not be empty); their contents are meaningless.
 /// Native gathers when offsets fit in 31 bits (cell*N and 3*vertex), else a
 /// scalar loop. Forced inline: see march_step (dvr_integrators_impl.hpp).
+/// Written into `c` (a march's corners stay in place: see CellMarch::last).
 template <class A, int N>
-CELLRAY_FORCE_INLINE CellCorners<A, N> gather_corners(CellMesh<N> const& mesh, vint<A> const& cells,
-                                                      vmask<A> const& active) {
-  CellCorners<A, N> c;
+CELLRAY_FORCE_INLINE void gather_corners_into(CellCorners<A, N>& c, CellMesh<N> const& mesh, vint<A> const& cells,
+                                              vmask<A> const& active) {
+  if constexpr (N == 8) c.uniform = false;
   vint<A> const cell = simd::select(simd::to_int_mask(active), cells, vint<A>(0));
   float const* xyz = mesh.positions();
   float const* val = mesh.values();
@@ -260,7 +261,7 @@ CELLRAY_FORCE_INLINE CellCorners<A, N> gather_corners(CellMesh<N> const& mesh, v
       c.s[i] = val ? simd::finite_or_nan(simd::gather(val, v)) : vfloat<A>(std::numeric_limits<float>::quiet_NaN());
       c.id[i] = v;
     }
-    return c;
+    return;
   } else {
     alignas(64) int32_t cid[width<A>];
     simd::store(cid, cell);
@@ -284,6 +285,14 @@ CELLRAY_FORCE_INLINE CellCorners<A, N> gather_corners(CellMesh<N> const& mesh, v
     }
   }
   if constexpr (N == 4) isa_detail::sort_tet_corners(c);
+}
+
+/// gather_corners_into, returned.
+template <class A, int N>
+CELLRAY_FORCE_INLINE CellCorners<A, N> gather_corners(CellMesh<N> const& mesh, vint<A> const& cells,
+                                                      vmask<A> const& active) {
+  CellCorners<A, N> c;
+  gather_corners_into<A, N>(c, mesh, cells, active);
   return c;
 }
 

@@ -328,20 +328,20 @@ void march_piece(RayBatch<A> const& ray, typename CellMarch<A, N>::Step const& s
     vmask<A> const folded = go && st.k.linear, trilinear = go && !st.k.linear;
     if (CELLRAY_LIKELY(simd::any(trilinear))) {
       Vec3<A> u1, u2;
-      vfloat<A> const v1 = CellOps<A, 8>::field_on_ray(ray, st.c, st.k, trilinear, 1.f / 3.f, u1);
-      vfloat<A> const v2 = CellOps<A, 8>::field_on_ray(ray, st.c, st.k, trilinear, 2.f / 3.f, u2);
+      vfloat<A> const v1 = CellOps<A, 8>::field_on_ray(ray, st.c(), st.k, trilinear, 1.f / 3.f, u1);
+      vfloat<A> const v2 = CellOps<A, 8>::field_on_ray(ray, st.c(), st.k, trilinear, 2.f / 3.f, u2);
       pc.f = isa_detail::cubic_through<A>(st.k.s_in, v1, v2, st.k.s_out);
       if (shade) {
-        Vec3<A> const g0 = isa_detail::hex_world_gradient(st.c, st.k.u_in), g1 = isa_detail::hex_world_gradient(st.c, u1);
-        Vec3<A> const g2 = isa_detail::hex_world_gradient(st.c, u2), g3 = isa_detail::hex_world_gradient(st.c, st.k.u_out);
+        Vec3<A> const g0 = isa_detail::hex_world_gradient(st.c(), st.k.u_in), g1 = isa_detail::hex_world_gradient(st.c(), u1);
+        Vec3<A> const g2 = isa_detail::hex_world_gradient(st.c(), u2), g3 = isa_detail::hex_world_gradient(st.c(), st.k.u_out);
         pc.g[0] = isa_detail::cubic_through<A>(g0.x, g1.x, g2.x, g3.x);
         pc.g[1] = isa_detail::cubic_through<A>(g0.y, g1.y, g2.y, g3.y);
         pc.g[2] = isa_detail::cubic_through<A>(g0.z, g1.z, g2.z, g3.z);
       }
     }
-    if (CELLRAY_UNLIKELY(simd::any(folded))) CellOps<A, 8>::folded_tet_field(st.c, st.k, folded, pc.f, shade ? pc.g : nullptr);
+    if (CELLRAY_UNLIKELY(simd::any(folded))) CellOps<A, 8>::folded_tet_field(st.c(), st.k, folded, pc.f, shade ? pc.g : nullptr);
   } else {
-    CellOps<A, N>::segment_field(ray, st.c, st.k, go, pc.f, shade ? pc.g : nullptr);
+    CellOps<A, N>::segment_field(ray, st.c(), st.k, go, pc.f, shade ? pc.g : nullptr);
   }
 }
 

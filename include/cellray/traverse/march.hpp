@@ -154,8 +154,11 @@ template <class A, int N> struct CellMarch {
   /// cannot progress (a defensive end; the clip of the located cell
   /// progresses by construction, see FirstCellQuery).
   vfloat<A> located_at = vfloat<A>(std::numeric_limits<float>::quiet_NaN());
-  /// Tets: the corners of every lane's last cell (valid after a step, until
-  /// the next locate): a lane's next cell shares three of them.
+  /// The corners of every lane's last cell, written in place by each step
+  /// (a Step points at them: copied out, 1280 bytes a tet step went by `rep
+  /// movsq`, 9% of the 2.4M-tet DVR frame's march). Tets: valid for
+  /// next_corners after a step, until the next locate: a lane's next cell
+  /// shares three of them.
   CellCorners<A, N> last;
   vint<A> last_exit = vint<A>(0);  ///< tets: the face each lane left its last cell through
   vfloat<A> last_s_out;            ///< tets: the value where each lane left it
@@ -178,7 +181,8 @@ template <class A, int N> struct CellMarch {
   /// the ray has not integrated yet; `visible` where that piece may have
   /// opacity (no NaN corner, values meeting a window, e > a).
   struct Step {
-    CellCorners<A, N> c;
+    CellCorners<A, N> const* corners = nullptr;  ///< the march's `last`: valid until its next step
+    CellCorners<A, N> const& c() const { return *corners; }
     Clip k;
     vfloat<A> a, e;
     vmask<A> visible;
@@ -214,6 +218,8 @@ template <class A, int N> struct CellMarch {
   /// inline: see march_step in render/dvr_integrators_impl.hpp.
   CELLRAY_FORCE_INLINE Step step(vmask<A> const& lanes, bool want_gradient) {
     Step s;
+    s.corners = &last;
+    CellCorners<A, N>& c = last;
     vint<A> exit_face(0);
     using Ops = CellOps<A, N>;
     bool onward = false;
@@ -221,21 +227,20 @@ template <class A, int N> struct CellMarch {
       onward = last_valid;
       if (onward) {
         vint<A> entry;
-        s.c = next_corners(entry);
-        s.k = Ops::march_clip_onward(ray_batch(r), s.c, lanes, entry, t, last_s_out, inv_dd, exit_face);
+        next_corners(entry);
+        s.k = Ops::march_clip_onward(ray_batch(r), c, lanes, entry, t, last_s_out, inv_dd, exit_face);
       }
     }
     // The cells' addresses, from the last step where it holds them for
     // every lane (see below).
     vint<A> const at = follow ? ahead : simd::select(simd::to_int_mask(lanes), cell, vint<A>(0));
     if (!onward) {
-      s.c = gather_corners<A, N>(mesh, at, simd::all_lanes<A>());
-      s.k = Ops::march_clip_window(ray_batch(r), s.c, lanes, t, t_end, &exit_face);
+      gather_corners_into<A, N>(c, mesh, at, simd::all_lanes<A>());
+      s.k = Ops::march_clip_window(ray_batch(r), c, lanes, t, t_end, &exit_face);
     }
     // A field linear on every ray has one gradient per cell.
     if constexpr (Ops::linear_on_ray)
-      if (want_gradient) s.gradient = Ops::gradient_at(s.c, Vec3<A>{});
-    CellCorners<A, N> const& c = s.c;
+      if (want_gradient) s.gradient = Ops::gradient_at(c, Vec3<A>{});
     vmask<A> const progress = s.k.hit && s.k.t_out > t;
     // An onward clip takes t at the exit from the exit face's weights, t at
     // the entry from the last cell's: a line through a cell close to an
@@ -262,7 +267,7 @@ template <class A, int N> struct CellMarch {
     left = simd::select(simd::to_int_mask(lanes), simd::select(mi, cell, vint<A>(-1)), left);
     cell = simd::select(simd::to_int_mask(lanes), simd::select(go_on, next, vint<A>(-1)), cell);
     ahead = simd::select(next < vint<A>(0), vint<A>(0), next), follow = true;
-    if constexpr (Ops::march_reuses_corners) last = c, last_exit = exit_face, last_s_out = s.k.s_out, last_valid = reuse_ok;
+    if constexpr (Ops::march_reuses_corners) last_exit = exit_face, last_s_out = s.k.s_out, last_valid = reuse_ok;
     return s;
   }
 
@@ -274,10 +279,11 @@ template <class A, int N> struct CellMarch {
   /// instead of 16), and it goes where its id sorts among the three. The
   /// same corners, bit for bit, as gather_corners (equal ids: the same
   /// vertex, wherever it sorts). `entry` gets the index of the face the
-  /// lane enters through: the one opposite the unshared corner.
-  CellCorners<A, 4> next_corners(vint<A>& entry) const {
+  /// lane enters through: the one opposite the unshared corner. Written
+  /// over `last` (read first).
+  void next_corners(vint<A>& entry) {
     static_assert(N == 4);
-    CellCorners<A, 4> c;
+    CellCorners<A, 4>& c = last;
     vint<A> const& cl = ahead;  // == cell in `lanes`
     auto const* idx = reinterpret_cast<int32_t const*>(mesh.indices32());
     vint<A> fresh_id(0);
@@ -322,7 +328,6 @@ template <class A, int N> struct CellMarch {
     vint<A> const one(1), zero(0);
     entry = (simd::select(before[0], one, zero) + simd::select(before[1], one, zero)) + simd::select(before[2], one, zero);
     place(c.x, sx, fx, as_float), place(c.y, sy, fy, as_float), place(c.z, sz, fz, as_float), place(c.s, ss, fs, as_float);
-    return c;
   }
 };
 
@@ -435,8 +440,8 @@ inline vmask<A> march_occluded(TreeView const& tree, CellMesh<N> const& mesh, Fa
     vmask<A> const has = live && m.has_cell();
     if (simd::none(has)) break;
     typename CellMarch<A, N>::Step const st = m.step(has, false);
-    vmask<A> const nan = has_nan_value(st.c);
-    CellIsoHit<A> const h = iso_in_clip<A, N>(ray, st.k, st.c, r.tmin, r.tmax, isos.values, isos.count, method);
+    vmask<A> const nan = has_nan_value(st.c());
+    CellIsoHit<A> const h = iso_in_clip<A, N>(ray, st.k, st.c(), r.tmin, r.tmax, isos.values, isos.count, method);
     vmask<A> const found = h.hit && has && !nan;
     occluded = occluded || found;
     live = live && !found && m.t < r.tmax;
@@ -469,13 +474,13 @@ inline vmask<A> march_occluded(TreeView const& tet_tree, TetMesh const& tm, TetN
     vmask<A> found = simd::no_lanes<A>();
     if (simd::any(st.in_tet)) {
       CellIsoHit<A> const h =
-          iso_in_clip<A, 4>(ray, st.tet.k, st.tet.c, r.tmin, r.tmax, isos.values, isos.count, method);
-      found = found || (h.hit && st.in_tet && !has_nan_value(st.tet.c));
+          iso_in_clip<A, 4>(ray, st.tet.k, st.tet.c(), r.tmin, r.tmax, isos.values, isos.count, method);
+      found = found || (h.hit && st.in_tet && !has_nan_value(st.tet.c()));
     }
     if (simd::any(st.in_hex)) {
       CellIsoHit<A> const h =
-          iso_in_clip<A, 8>(ray, st.hex.k, st.hex.c, r.tmin, r.tmax, isos.values, isos.count, method);
-      found = found || (h.hit && st.in_hex && !has_nan_value(st.hex.c));
+          iso_in_clip<A, 8>(ray, st.hex.k, st.hex.c(), r.tmin, r.tmax, isos.values, isos.count, method);
+      found = found || (h.hit && st.in_hex && !has_nan_value(st.hex.c()));
     }
     occluded = occluded || found;
     live = live && !found && m.t < r.tmax;
