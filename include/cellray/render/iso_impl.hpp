@@ -74,6 +74,48 @@ inline SceneHit<A> nearest_hit(PreparedScene const& s, RayPacket<A> const& r, vm
   return best;
 }
 
+/// nearest_hit for K packets at once through each part's tree
+/// (traverse_packets, packet traversal): per packet the hits nearest_hit
+/// finds. `active[k]`: packet k's lanes.
+template <class A, int K>
+inline void nearest_hits(PreparedScene const& s, RayPacket<A> const (&r)[K], uint32_t const (&active)[K],
+                         IsoSet const& isos, CellIsoOptions const& roots, bool gradient, bool param,
+                         SceneHit<A> (&best)[K]) {
+  constexpr int W = width<A>;
+  LaneSet<A, K> lanes = 0;
+  for (int k = 0; k < K; ++k) {
+    best[k].t = r[k].tmax;
+    best[k].iso = best[k].item = best[k].part = vint<A>(-1);
+    lanes |= LaneSet<A, K>(active[k]) << (k * W);
+  }
+  for (size_t pi = 0; pi < s.parts.size(); ++pi) {
+    PreparedPart const& part = s.parts[pi];
+    part.visit([&](auto const& mesh, auto const*) {
+      constexpr int N = std::decay_t<decltype(mesh)>::corners;
+      auto query = [&](int k) {
+        FirstHitQuery<A, N> q{part.tree, mesh, r[k], isos, roots, {best[k].t, vint<A>(-1), vint<A>(-1)}};
+        q.want_gradient = gradient;
+        q.want_param = param && CellOps<A, N>::keeps_param;
+        return q;
+      };
+      static_assert(K == 4, "the queries below are written out for 4 packets");
+      FirstHitQuery<A, N> q[K] = {query(0), query(1), query(2), query(3)};
+      FirstHitGroup<A, N, K> group{q, r};
+      traverse_packets<A, K>(part.tree, r, lanes, group);
+      for (int k = 0; k < K; ++k) {
+        vmask<A> const better = q[k].hit.t < best[k].t;
+        auto const bi = simd::to_int_mask(better);
+        best[k].t = simd::select(better, q[k].hit.t, best[k].t);
+        best[k].iso = simd::select(bi, q[k].hit.iso, best[k].iso);
+        best[k].item = simd::select(bi, q[k].hit.item, best[k].item);
+        best[k].part = simd::select(bi, vint<A>(int32_t(pi)), best[k].part);
+        if (gradient) best[k].grad = select<A>(better, q[k].grad, best[k].grad);
+        if (q[k].want_param) best[k].param = select<A>(better, q[k].param, best[k].param);
+      }
+    });
+  }
+}
+
 /// Whether the part's hits bring their cell coordinates (CellOps::keeps_param).
 inline bool keeps_param(PreparedPart const& part) {
   return part.visit([](auto const& mesh, auto const*) {
@@ -276,15 +318,37 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
   Vec3<A> const eye{vfloat<A>(cam.eye.x), vfloat<A>(cam.eye.y), vfloat<A>(cam.eye.z)};
   bool const clipping = s.clip.count > 0;
 
-  for (int by = tile.y0; by < tile.y0 + tile.h; by += block_h<A>)
-    for (int bx = tile.x0; bx < tile.x0 + tile.w; bx += block_w<A>) {
-      int px[W], py[W];
-      uint32_t valid;
-      RayPacket<A> r = camera_packet<A>(cam, tile, bx, by, px, py, valid);
+  // 2x2 neighbouring pixel blocks find their first hits in one traversal
+  // (nearest_hits): their rays are coherent, so nodes and leaves are
+  // visited, and cells read, once for four packets. Clip planes change
+  // each packet's interval first, so they go packet by packet.
+  constexpr int K = 4;
+  bool const grouped = o.traversal == Traversal::packet && !clipping;
+  for (int gy = tile.y0; gy < tile.y0 + tile.h; gy += 2 * block_h<A>)
+    for (int gx = tile.x0; gx < tile.x0 + tile.w; gx += 2 * block_w<A>) {
+      int gpx[K][W], gpy[K][W];
+      uint32_t gvalid[K] = {};
+      RayPacket<A> gr[K];
+      for (int k = 0; k < K; ++k) {
+        int const bx = gx + (k & 1) * block_w<A>, by = gy + (k >> 1) * block_h<A>;
+        if (bx >= tile.x0 + tile.w || by >= tile.y0 + tile.h) {
+          gr[k] = gr[0];  // no lanes (block 0 is always in the tile)
+          continue;
+        }
+        gr[k] = camera_packet<A>(cam, tile, bx, by, gpx[k], gpy[k], gvalid[k]);
+        gr[k].tmin = zero;
+        gr[k].tmax = host_depth<A>(out, gpx[k], gpy[k], gvalid[k]);  // the host's opaque geometry hides what lies behind it
+      }
+      SceneHit<A> first[K];
+      if (grouped) nearest_hits<A, K>(s, gr, gvalid, isos, p.roots, query_gradient, param_attributes, first);
+    for (int k = 0; k < K; ++k) {
+      if (!gvalid[k]) continue;
+      int const(&px)[W] = gpx[k];
+      int const(&py)[W] = gpy[k];
+      uint32_t const valid = gvalid[k];
+      RayPacket<A> r = gr[k];
       Vec3<A> const dir = ray_batch(r).dir();
       vfloat<A> color_r = zero, color_g = zero, color_b = zero, alpha = zero;
-      r.tmin = zero;
-      r.tmax = host_depth<A>(out, px, py, valid);  // the host's opaque geometry hides what lies behind it
       vfloat<A> depth(std::numeric_limits<float>::infinity());
       vfloat<A> const depth_at(out.depth_opacity);
       uint32_t live = valid;
@@ -325,8 +389,10 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
       }
       // Front-to-back layers: continue behind semi-transparent surfaces.
       for (int layer = 0; layer < 16 && live; ++layer) {
-        SceneHit<A> const h = nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots, o.traversal, threshold,
-                                             query_gradient, param_attributes);
+        SceneHit<A> const h = layer == 0 && grouped
+                                  ? first[k]
+                                  : nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots, o.traversal,
+                                                   threshold, query_gradient, param_attributes);
         vmask<A> const hit = simd::mask_from_bits<A>(live) && simd::to_float_mask(h.item >= vint<A>(0));
         uint32_t hit_bits = simd::movemask(hit);
         if (!hit_bits) break;
@@ -583,6 +649,7 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
         put_pixel(out, px[l], py[l], cr[size_t(l)], cg[size_t(l)], cb[size_t(l)], ca[size_t(l)]);
         if (out.depth_out) put_depth(out, px[l], py[l], cd[size_t(l)]);
       }
+    }
     }
 }
 

@@ -140,5 +140,58 @@ template <class A, int N> struct FirstHitQuery {
   }
 };
 
+/// K first-hit queries, one per packet, traversed together
+/// (traverse_packets): a leaf's cells are read, filtered by value and boxed
+/// once for all packets, and each packet with a lane in a cell's box runs
+/// the cell's kernel over all its lanes in the leaf, as
+/// FirstHitQuery::leaf does, so each packet finds the hits it would alone.
+template <class A, int N, int K> struct FirstHitGroup {
+  FirstHitQuery<A, N>* q;  ///< K queries, packet k's in q[k]
+  RayPacket<A> const* r;   ///< the K packets
+
+  bool node_relevant(float vmin, float vmax) const { return q[0].node_relevant(vmin, vmax); }
+  vfloat<A> t_lo(int k) const { return q[k].t_lo(); }
+  vfloat<A> t_hi(int k) const { return q[k].t_hi(); }
+
+  void leaf(uint64_t first, uint32_t count, LaneSet<A, K> lanes) {
+    CellMesh<N> const& mesh = q[0].mesh;
+    TreeView const& tree = q[0].tree;
+    if (!mesh.values()) return;  // NaN everywhere: no cell can hold a crossing
+    float const* xyz = mesh.positions();
+    for (uint64_t i = first; i < first + count; ++i) {
+      ScalarCorners<N> k;
+      read_corner_values(mesh, tree.item(i), k);
+      if (!q[0].isos.overlaps(k.lo, k.hi)) continue;
+      float lo[3], hi[3];
+      corner_box(xyz, k, lo, hi);
+      uint32_t in = 0;  // packets with a lane in the cell's box
+      for (int p = 0; p < K; ++p) {
+        uint32_t const m = packet_lanes<A, K>(lanes, p);
+        vfloat<A> tn;
+        if (m && simd::any(simd::mask_from_bits<A>(m) && box_hit(r[p], lo, hi, r[p].tmin, q[p].hit.t, tn)))
+          in |= 1u << p;
+      }
+      if (!in) continue;
+      order_corners(mesh.vertex_count(), k);
+      vint<A> const slot = vint<A>(int32_t(i));
+      if constexpr (CellOps<A, N>::holds_folded_tets) {
+        if (CellOps<A, N>::is_folded_tet(k.key)) {
+          FoldedTet<A> const f = CellOps<A, N>::broadcast_folded_tet(xyz, k);
+          for (uint32_t b = in; b; b &= b - 1) {
+            int const p = __builtin_ctz(b);
+            q[p].folded_tet_hits(f, simd::mask_from_bits<A>(packet_lanes<A, K>(lanes, p)), slot);
+          }
+          continue;
+        }
+      }
+      CellCorners<A, N> const c = broadcast<A, N>(mesh, k);
+      for (uint32_t b = in; b; b &= b - 1) {
+        int const p = __builtin_ctz(b);
+        q[p].cell_hits(c, simd::mask_from_bits<A>(packet_lanes<A, K>(lanes, p)), slot);
+      }
+    }
+  }
+};
+
 }  // namespace CELLRAY_ISA_NS
 }  // namespace cellray

@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 
 #include "packet.hpp"
 #include "tree_view.hpp"
@@ -52,6 +53,19 @@ inline vmask<A> windows_overlap(ValueWindows const& w, vfloat<A> const& vmin, vf
 
 template <class A, class Query>
 void traverse_spmd(TreeView const& tree, RayPacket<A> const& r, vmask<A> active, Query& q, uint32_t root = 0);
+
+/// Lane sets of K packets of W rays in one word: bit k * W + l is lane l of
+/// packet k. One integer to copy, mask and test per stack entry (K arrays
+/// of 32-bit masks were stored lane by lane and reloaded as one vector: a
+/// store-forwarding stall on every stack pop).
+template <class A, int K> using LaneSet = std::conditional_t<K * width<A> <= 32, uint32_t, uint64_t>;
+
+/// Lanes of packet k in a lane set.
+template <class A, int K> inline uint32_t packet_lanes(LaneSet<A, K> s, int k) {
+  constexpr int W = width<A>;
+  return uint32_t(s >> (k * W)) & uint32_t(W >= 32 ? ~0u : (1u << W) - 1u);
+}
+
 
 template <class A, class Query>
 void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> active, Query& q, uint32_t root = 0,
@@ -120,6 +134,98 @@ void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> activ
       } else if (bl) {
         ni = li, m = ml;
       } else if (br) {
+        ni = ri, m = mr;
+      } else {
+        break;
+      }
+    }
+  }
+}
+
+/// Packet traversal of K packets at once (neighbouring pixel blocks): each
+/// node's value range is tested once and its box once per packet with
+/// lanes in it, and a leaf is visited once for all K x W rays, so the
+/// scalar work of a node and of a leaf (its cells' corner reads, value
+/// ranges and boxes) is paid once where coherent packets would each pay
+/// it. The nearer child goes first for the majority of the lanes that enter
+/// both (as traverse_packet, over all K packets). A group query supplies
+///   bool node_relevant(float vmin, float vmax)
+///   vfloat<A> t_lo(int k), t_hi(int k)       packet k's interval
+///   void leaf(uint64_t first_slot, uint32_t count, LaneSet<A, K> lanes)
+template <class A, int K, class Group>
+void traverse_packets(TreeView const& tree, RayPacket<A> const (&r)[K], LaneSet<A, K> active, Group& q) {
+  constexpr int W = width<A>;
+  using Lanes = LaneSet<A, K>;
+  if (tree.empty() || !active) return;
+  // Per packet, where its lanes entered the node: a pop drops those whose
+  // interval has since shrunk past it (see traverse_packet).
+  struct Entry {
+    vfloat<A> t_enter[K];
+    uint32_t node;
+    Lanes lanes;
+  };
+  auto const enter = [&](Node const& node, Lanes from, vfloat<A> (&tn)[K]) {
+    Lanes in = 0;
+    for (int k = 0; k < K; ++k) {
+      uint32_t const lanes = packet_lanes<A, K>(from, k);
+      if (!lanes) continue;
+      in |= Lanes(simd::movemask(simd::mask_from_bits<A>(lanes) &&
+                                 box_hit(r[k], node.lo, node.hi, q.t_lo(k), q.t_hi(k), tn[k])))
+            << (k * W);
+    }
+    return in;
+  };
+  Entry stack[traversal_stack_size];
+  int sp = 0;
+  if (!q.node_relevant(tree.ranges[0], tree.ranges[1])) return;
+  {
+    Entry& root = stack[0];
+    root.node = 0;
+    root.lanes = enter(tree.nodes[0], active, root.t_enter);
+    if (!root.lanes) return;
+    sp = 1;
+  }
+  vfloat<A> const slack(1.f + 4.f * std::numeric_limits<float>::epsilon());  // as box_hit's exit
+  while (sp > 0) {
+    Entry const& e = stack[--sp];
+    uint32_t ni = e.node;
+    Lanes m = 0;
+    for (int k = 0; k < K; ++k) {
+      uint32_t const lanes = packet_lanes<A, K>(e.lanes, k);
+      if (lanes)
+        m |= Lanes(simd::movemask(simd::mask_from_bits<A>(lanes) && e.t_enter[k] <= q.t_hi(k) * slack)) << (k * W);
+    }
+    if (!m) continue;
+    while (true) {
+      Node const& node = tree.nodes[ni];
+      if (node.is_leaf()) {
+        q.leaf(node.first_item(), node.item_count(), m);
+        break;
+      }
+      uint32_t const li = node.left(), ri = node.right();
+      vfloat<A> tl[K], tr[K];
+      Lanes const ml = q.node_relevant(tree.ranges[2 * li], tree.ranges[2 * li + 1]) ? enter(tree.nodes[li], m, tl) : 0;
+      Lanes const mr = q.node_relevant(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]) ? enter(tree.nodes[ri], m, tr) : 0;
+      if (ml && mr) {
+        int both = 0, left_nearer = 0;
+        for (int k = 0; k < K; ++k) {
+          uint32_t const b = packet_lanes<A, K>(ml & mr, k);
+          if (!b) continue;
+          both += __builtin_popcount(b);
+          left_nearer += popcount<A>(simd::mask_from_bits<A>(b) && tl[k] <= tr[k]);
+        }
+        bool const left_first = left_nearer * 2 >= both;
+        // The builders cap the depth at MinMaxBvh::max_depth, so the stack holds.
+        Entry& far = stack[sp++];
+        far.node = left_first ? ri : li;
+        far.lanes = left_first ? mr : ml;
+        for (int k = 0; k < K; ++k)
+          if (packet_lanes<A, K>(far.lanes, k)) far.t_enter[k] = left_first ? tr[k] : tl[k];
+        ni = left_first ? li : ri;
+        m = left_first ? ml : mr;
+      } else if (ml) {
+        ni = li, m = ml;
+      } else if (mr) {
         ni = ri, m = mr;
       } else {
         break;
