@@ -204,6 +204,7 @@ void traverse_packets(TreeView const& tree, RayPacket<A> const (&r)[K], LaneSet<
       }
       uint32_t const li = node.left(), ri = node.right();
       vfloat<A> tl[K], tr[K];
+      for (int k = 0; k < K; ++k) tl[k] = tr[k] = vfloat<A>(0.f);  // read only where entered
       Lanes const ml = q.node_relevant(tree.ranges[2 * li], tree.ranges[2 * li + 1]) ? enter(tree.nodes[li], m, tl) : 0;
       Lanes const mr = q.node_relevant(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]) ? enter(tree.nodes[ri], m, tr) : 0;
       if (ml && mr) {
