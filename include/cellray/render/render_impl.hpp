@@ -25,31 +25,46 @@ template <class A> struct DvrScratch {
   explicit DvrScratch(PreparedScene const& s) : sample_cull(s.parts.size()) {}
 };
 
-/// One packet of DVR rays over [t_lo, t_hi] per lane (camera rays: [0, the
-/// host's depth]; host rays: their own interval), narrowed to the scene's
-/// box and the clip region: premultiplied colour and opacity, and where the
-/// opacity first reaches `depth_at` (+inf: never).
+/// Where a packet of DVR rays is inside the scene's bounds and the clip
+/// region: per lane [t_enter, t_exit] within [t_lo, t_hi], in `inside`.
+template <class A> struct DvrSpan {
+  vmask<A> inside;
+  vfloat<A> t_enter, t_exit;
+};
+
+template <class A>
+inline DvrSpan<A> dvr_span(PreparedScene const& s, RayPacket<A> const& r, vmask<A> lanes, vfloat<A> const& t_lo,
+                           vfloat<A> const& t_hi) {
+  // An empty scene's box (lo = +inf, hi = -inf) passes the slab test for
+  // every t: no ray is inside it (else the sample march never ends).
+  DvrSpan<A> sp;
+  sp.inside = (s.lo.x <= s.hi.x ? lanes : simd::no_lanes<A>()) &&
+              box_hit(r, &s.lo.x, &s.hi.x, t_lo, simd::min(t_hi, vfloat<A>(std::numeric_limits<float>::max())),
+                      sp.t_enter);
+  sp.t_exit = simd::min(scene_exit(r, s), t_hi);
+  sp.t_enter = simd::max(sp.t_enter, t_lo);
+  if (s.clip.count > 0) {
+    ClipSpan<A> const cs = clip_span<A>(s.clip, r, sp.t_enter, sp.t_exit);
+    sp.t_enter = simd::select(sp.inside, cs.t0, sp.t_enter), sp.t_exit = simd::select(sp.inside, cs.t1, sp.t_exit);
+  }
+  sp.inside = sp.inside && sp.t_enter < sp.t_exit;
+  return sp;
+}
+
+/// One packet of DVR rays over its span (dvr_span): premultiplied colour
+/// and opacity, and where the opacity first reaches `depth_at` (+inf:
+/// never). `first_cells`: where a one-part march's rays start, located
+/// already for the lanes inside the span (dvr_first_cells), or nullptr.
 template <class A>
 void dvr_packet(PreparedScene const& s, DvrParams const& p, RenderOptions const& o, RayPacket<A> const& r,
-                vmask<A> lanes, vfloat<A> const& t_lo, vfloat<A> const& t_hi, DvrScratch<A>& scratch, vfloat<A>& cr,
+                DvrSpan<A> const& sp, vint<A> const* first_cells, DvrScratch<A>& scratch, vfloat<A>& cr,
                 vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca, float depth_at, vfloat<A>& depth) {
   constexpr int W = width<A>;
   int const threshold = o.hybrid_threshold > 0 ? o.hybrid_threshold : std::max(1, W / 4);
   bool const march = s.parts.size() == 1 && s.parts[0].marches();
-  // The part of each ray inside the scene's bounds. An empty scene's box
-  // (lo = +inf, hi = -inf) passes the slab test for every t: no ray is
-  // inside it (else the sample march never ends).
-  vfloat<A> t_enter;
-  vmask<A> inside = (s.lo.x <= s.hi.x ? lanes : simd::no_lanes<A>()) &&
-                    box_hit(r, &s.lo.x, &s.hi.x, t_lo, simd::min(t_hi, vfloat<A>(std::numeric_limits<float>::max())),
-                            t_enter);
-  vfloat<A> t_exit = simd::min(scene_exit(r, s), t_hi);
-  t_enter = simd::max(t_enter, t_lo);
-  if (s.clip.count > 0) {
-    ClipSpan<A> const cs = clip_span<A>(s.clip, r, t_enter, t_exit);
-    t_enter = simd::select(inside, cs.t0, t_enter), t_exit = simd::select(inside, cs.t1, t_exit);
-  }
-  inside = inside && t_enter < t_exit;
+  vmask<A> inside = sp.inside;
+  vfloat<A> const& t_enter = sp.t_enter;
+  vfloat<A> const& t_exit = sp.t_exit;
   cr = cg = cb = ca = vfloat<A>(0.f);
   depth = vfloat<A>(std::numeric_limits<float>::infinity());
   if (simd::none(inside)) return;
@@ -60,6 +75,7 @@ void dvr_packet(PreparedScene const& s, DvrParams const& p, RenderOptions const&
     PreparedPart const& pp = s.parts[0];
     pp.visit([&](auto const& mesh, auto const* neighbours) {
       CellMarch<A, std::decay_t<decltype(mesh)>::corners> m(pp.tree, mesh, *neighbours, r, s.windows, t_enter, t_exit);
+      if (first_cells) inside = m.take_located(inside, *first_cells);
       integrate_march<A>(s, m, r, inside, t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
     });
   } else if (s.mixed_march) {
@@ -73,19 +89,71 @@ void dvr_packet(PreparedScene const& s, DvrParams const& p, RenderOptions const&
                           depth_at, depth);
 }
 
+/// Whether dvr_first_cells applies: cell segments marching through one
+/// part, with packet traversal (the march's first locate).
+inline bool dvr_groups_first_cells(PreparedScene const& s, DvrParams const& p, RenderOptions const& o) {
+  return p.mode == DvrMode::segments && o.traversal == Traversal::packet && s.parts.size() == 1 &&
+         s.parts[0].marches();
+}
+
+/// The first visible cell of every lane inside the spans of K packets, in
+/// one traversal (traverse_packets; as CellMarch::locate finds it for one
+/// packet): neighbouring pixel blocks share the nodes, leaves and cell
+/// reads. -1: none.
+template <class A, int K>
+void dvr_first_cells(PreparedScene const& s, RayPacket<A> const (&r)[K], DvrSpan<A> const (&sp)[K],
+                     vint<A> (&cells)[K]) {
+  constexpr int W = width<A>;
+  LaneSet<A, K> lanes = 0;
+  for (int k = 0; k < K; ++k) lanes |= LaneSet<A, K>(simd::movemask(sp[k].inside)) << (k * W);
+  PreparedPart const& pp = s.parts[0];
+  pp.visit([&](auto const& mesh, auto const*) {
+    constexpr int N = std::decay_t<decltype(mesh)>::corners;
+    auto query = [&](int k) { return FirstCellQuery<A, N>(pp.tree, mesh, r[k], s.windows, sp[k].t_enter, sp[k].t_exit); };
+    static_assert(K == 4, "the queries below are written out for 4 packets");
+    FirstCellQuery<A, N> q[K] = {query(0), query(1), query(2), query(3)};
+    FirstCellGroup<A, N, K> group{q, r};
+    traverse_packets<A, K>(pp.tree, r, lanes, group);
+    for (int k = 0; k < K; ++k) cells[k] = q[k].cell;
+  });
+}
+
 template <class A>
 void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const& p, RenderOptions const& o,
                      Tile const& tile, FrameBuffer const& out) {
   constexpr int W = width<A>;
   DvrScratch<A> scratch(s);
-  for (int by = tile.y0; by < tile.y0 + tile.h; by += block_h<A>)
-    for (int bx = tile.x0; bx < tile.x0 + tile.w; bx += block_w<A>) {
-      int px[W], py[W];
-      uint32_t valid;
-      RayPacket<A> const r = camera_packet<A>(cam, tile, bx, by, px, py, valid);
+  // 2x2 neighbouring pixel blocks locate their first cells in one
+  // traversal (dvr_first_cells), then march one by one.
+  constexpr int K = 4;
+  bool const grouped = dvr_groups_first_cells(s, p, o);
+  for (int gy = tile.y0; gy < tile.y0 + tile.h; gy += 2 * block_h<A>)
+    for (int gx = tile.x0; gx < tile.x0 + tile.w; gx += 2 * block_w<A>) {
+      int gpx[K][W], gpy[K][W];
+      uint32_t gvalid[K] = {};
+      RayPacket<A> gr[K];
+      DvrSpan<A> gs[K];
+      for (int k = 0; k < K; ++k) {
+        int const bx = gx + (k & 1) * block_w<A>, by = gy + (k >> 1) * block_h<A>;
+        if (bx >= tile.x0 + tile.w || by >= tile.y0 + tile.h) {
+          gr[k] = gr[0], gs[k] = gs[0];  // no lanes (block 0 is always in the tile)
+          gs[k].inside = simd::no_lanes<A>();
+          continue;
+        }
+        gr[k] = camera_packet<A>(cam, tile, bx, by, gpx[k], gpy[k], gvalid[k]);
+        gs[k] = dvr_span<A>(s, gr[k], simd::mask_from_bits<A>(gvalid[k]), vfloat<A>(0.f),
+                            host_depth<A>(out, gpx[k], gpy[k], gvalid[k]));
+      }
+      vint<A> first[K];
+      if (grouped) dvr_first_cells<A, K>(s, gr, gs, first);
+    for (int k = 0; k < K; ++k) {
+      if (!gvalid[k]) continue;
+      int const(&px)[W] = gpx[k];
+      int const(&py)[W] = gpy[k];
+      uint32_t const valid = gvalid[k];
       vfloat<A> cr, cg, cb, ca, depth;
-      dvr_packet<A>(s, p, o, r, simd::mask_from_bits<A>(valid), vfloat<A>(0.f), host_depth<A>(out, px, py, valid),
-                    scratch, cr, cg, cb, ca, out.depth_opacity, depth);
+      dvr_packet<A>(s, p, o, gr[k], gs[k], grouped ? &first[k] : nullptr, scratch, cr, cg, cb, ca, out.depth_opacity,
+                    depth);
       auto const ar = simd::to_array<A>(cr), ag = simd::to_array<A>(cg), ab = simd::to_array<A>(cb),
                  aa = simd::to_array<A>(ca), ad = simd::to_array<A>(depth);
       for (int l = 0; l < W; ++l) {
@@ -95,6 +163,7 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
                   ab[l] + rest * p.background.b, aa[l] + rest);
         if (out.depth_out) put_depth(out, px[l], py[l], ad[l]);
       }
+    }
     }
 }
 
@@ -112,7 +181,8 @@ void integrate_host_rays(PreparedScene const& s, DvrParams const& p, RenderOptio
     vmask<A> const lanes = simd::mask_from_bits<A>(cnt >= 32 ? ~0u : (1u << cnt) - 1u) && len2 > vfloat<A>(0.f) &&
                            len2 < vfloat<A>(std::numeric_limits<float>::infinity()) && r.tmin <= r.tmax;
     vfloat<A> cr, cg, cb, ca, depth;
-    dvr_packet<A>(s, p, o, r, lanes, simd::max(r.tmin, vfloat<A>(0.f)), r.tmax, scratch, cr, cg, cb, ca, depth_at,
+    dvr_packet<A>(s, p, o, r, dvr_span<A>(s, r, lanes, simd::max(r.tmin, vfloat<A>(0.f)), r.tmax), nullptr, scratch, cr,
+                  cg, cb, ca, depth_at,
                   depth);
     auto const ar = simd::to_array<A>(cr), ag = simd::to_array<A>(cg), ab = simd::to_array<A>(cb),
                aa = simd::to_array<A>(ca), ad = simd::to_array<A>(depth);

@@ -119,6 +119,52 @@ template <class A, int N> struct FirstCellQuery {
   }
 };
 
+/// K first-cell queries, one per packet, traversed together
+/// (traverse_packets): a leaf's cells are read, filtered by value and boxed
+/// once for all packets; each packet with lanes in a cell's box clips it
+/// for those lanes, as FirstCellQuery::leaf does, so each finds the cells
+/// it would alone.
+template <class A, int N, int K> struct FirstCellGroup {
+  FirstCellQuery<A, N>* q;  ///< K queries, packet k's in q[k]
+  RayPacket<A> const* r;    ///< the K packets
+
+  bool node_relevant(float vmin, float vmax) const { return q[0].node_relevant(vmin, vmax); }
+  vfloat<A> t_lo(int k) const { return q[k].t_lo(); }
+  vfloat<A> t_hi(int k) const { return q[k].t_hi(); }
+
+  void leaf(uint64_t first, uint32_t count, LaneSet<A, K> lanes) {
+    CellMesh<N> const& mesh = *q[0].mesh_;
+    TreeView const& tree = *q[0].tree_;
+    ValueWindows const& windows = q[0].windows;
+    float const* xyz = mesh.positions();
+    for (uint64_t i = first; i < first + count; ++i) {
+      uint64_t const cell = tree.item(i);
+      ScalarCorners<N> k;
+      read_corner_values(mesh, cell, k);
+      if (!windows.overlaps(k.lo, k.hi)) continue;
+      float lo[3], hi[3];
+      corner_box(xyz, k, lo, hi);
+      vmask<A> in[K];
+      uint32_t any = 0;  // packets with a lane in the cell's box
+      for (int p = 0; p < K; ++p) {
+        uint32_t const m = packet_lanes<A, K>(lanes, p);
+        if (!m) continue;
+        vfloat<A> tn;
+        in[p] = simd::mask_from_bits<A>(m) && box_hit(r[p], lo, hi, q[p].lo, q[p].t_hi(), tn);
+        if (simd::any(in[p])) any |= 1u << p;
+      }
+      if (!any) continue;
+      order_corners(mesh.vertex_count(), k);
+      CellCorners<A, N> const c = broadcast<A, N>(mesh, k);
+      vint<A> const id = vint<A>(int32_t(cell));
+      for (uint32_t b = any; b; b &= b - 1) {
+        int const p = __builtin_ctz(b);
+        q[p].visit(c, in[p], id);
+      }
+    }
+  }
+};
+
 /// The march of one packet (see the file comment; the renderer checks the
 /// mesh fits 32-bit gather offsets). The renderer drives it:
 /// locate() for lanes without a cell, step() for the others, integrating
@@ -202,12 +248,19 @@ template <class A, int N> struct CellMarch {
     vmask<A> const ask = need && !stuck;
     FirstCellQuery<A, N> q(tree, mesh, r, windows, t, t_end, left);
     traverse_query<A>(tree, r, ask, q, how, threshold);
-    vmask<A> const found = ask && simd::to_float_mask(q.cell >= vint<A>(0));
-    cell = simd::select(simd::to_int_mask(found), q.cell, cell);
+    return need && !take_located(ask, q.cell);
+  }
+
+  /// A locate's answer (FirstCellQuery::cell) for the lanes in `asked`,
+  /// found here or for a group of packets at once (FirstCellGroup): the
+  /// lanes go on from those cells. Returns the lanes that found one.
+  vmask<A> take_located(vmask<A> const& asked, vint<A> const& found_cell) {
+    vmask<A> const found = asked && simd::to_float_mask(found_cell >= vint<A>(0));
+    cell = simd::select(simd::to_int_mask(found), found_cell, cell);
     faint = simd::select(simd::to_int_mask(found), vint<A>(0), faint);
-    located_at = simd::select(ask, t, located_at);
+    located_at = simd::select(asked, t, located_at);
     last_valid = follow = false;
-    return need && !found;
+    return found;
   }
 
   /// One cell for each lane in `lanes` (all with a cell): its clip and the
