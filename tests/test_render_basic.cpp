@@ -121,8 +121,9 @@ TEST_CASE("iso: four pixel blocks traced together find the hits each finds alone
     float const dist = glm::length(cam.eye - 0.5f * (lo + hi));
     for (int y = 0; y < cam.height; ++y)
       for (int x = 0; x < cam.width; ++x)
-        depth_in[size_t(y) * size_t(cam.width) + size_t(x)] =
-            x < cam.width / 3 ? std::numeric_limits<float>::infinity() : dist * (0.8f + 0.4f * float(y) / float(cam.height));
+        depth_in[size_t(y) * size_t(cam.width) + size_t(x)] = x < cam.width / 3
+                                                                  ? std::numeric_limits<float>::infinity()
+                                                                  : dist * (0.8f + 0.4f * float(y) / float(cam.height));
     auto render_with = [&](Traversal t, std::vector<float>& depth) {
       RenderOptions o;
       o.isa = test::isa();
@@ -179,8 +180,9 @@ TEST_CASE("DVR: four pixel blocks locating their first cells together march as e
     float const dist = glm::length(cam.eye - 0.5f * (lo + hi));
     for (int y = 0; y < cam.height; ++y)
       for (int x = 0; x < cam.width; ++x)
-        depth_in[size_t(y) * size_t(cam.width) + size_t(x)] =
-            x < cam.width / 3 ? std::numeric_limits<float>::infinity() : dist * (0.8f + 0.4f * float(y) / float(cam.height));
+        depth_in[size_t(y) * size_t(cam.width) + size_t(x)] = x < cam.width / 3
+                                                                  ? std::numeric_limits<float>::infinity()
+                                                                  : dist * (0.8f + 0.4f * float(y) / float(cam.height));
     auto render_with = [&](Traversal t) {
       RenderOptions o;
       o.isa = test::isa();

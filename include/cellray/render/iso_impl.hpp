@@ -32,6 +32,18 @@ template <class A> struct SceneHit {
   Vec3<A> param{};          ///< when asked for, in hexahedral parts: the hit's trilinear coordinates (FirstHitQuery::param)
 };
 
+/// The hits of part `part_index`'s query `q` where they are nearer than `best`.
+template <class A, int N> inline void keep_nearer(FirstHitQuery<A, N> const& q, int part_index, SceneHit<A>& best) {
+  vmask<A> const better = q.hit.t < best.t;
+  auto const bi = simd::to_int_mask(better);
+  best.t = simd::select(better, q.hit.t, best.t);
+  best.iso = simd::select(bi, q.hit.iso, best.iso);
+  best.item = simd::select(bi, q.hit.item, best.item);
+  best.part = simd::select(bi, vint<A>(part_index), best.part);
+  if (q.want_gradient) best.grad = select<A>(better, q.grad, best.grad);
+  if (q.want_param) best.param = select<A>(better, q.param, best.param);
+}
+
 template <class A, int N>
 inline void hit_part(PreparedPart const& part, CellMesh<N> const& mesh, RayPacket<A> const& r, vmask<A> active,
                      IsoSet const& isos, CellIsoOptions const& roots, Traversal how, int threshold, int part_index,
@@ -44,14 +56,7 @@ inline void hit_part(PreparedPart const& part, CellMesh<N> const& mesh, RayPacke
     case Traversal::hybrid: traverse_packet<A>(part.tree, r, active, q, 0, threshold); break;
     case Traversal::spmd: traverse_spmd<A>(part.tree, r, active, q); break;
   }
-  vmask<A> const better = q.hit.t < best.t;
-  auto const bi = simd::to_int_mask(better);
-  best.t = simd::select(better, q.hit.t, best.t);
-  best.iso = simd::select(bi, q.hit.iso, best.iso);
-  best.item = simd::select(bi, q.hit.item, best.item);
-  best.part = simd::select(bi, vint<A>(part_index), best.part);
-  if (gradient) best.grad = select<A>(better, q.grad, best.grad);
-  if (q.want_param) best.param = select<A>(better, q.param, best.param);
+  keep_nearer<A>(q, part_index, best);
 }
 
 /// `gradient`: hits also bring their analytic gradient (SceneHit::grad);
@@ -102,16 +107,7 @@ inline void nearest_hits(PreparedScene const& s, RayPacket<A> const (&r)[K], uin
       FirstHitQuery<A, N> q[K] = {query(0), query(1), query(2), query(3)};
       FirstHitGroup<A, N, K> group{q, r};
       traverse_packets<A, K>(part.tree, r, lanes, group);
-      for (int k = 0; k < K; ++k) {
-        vmask<A> const better = q[k].hit.t < best[k].t;
-        auto const bi = simd::to_int_mask(better);
-        best[k].t = simd::select(better, q[k].hit.t, best[k].t);
-        best[k].iso = simd::select(bi, q[k].hit.iso, best[k].iso);
-        best[k].item = simd::select(bi, q[k].hit.item, best[k].item);
-        best[k].part = simd::select(bi, vint<A>(int32_t(pi)), best[k].part);
-        if (gradient) best[k].grad = select<A>(better, q[k].grad, best[k].grad);
-        if (q[k].want_param) best[k].param = select<A>(better, q[k].param, best[k].param);
-      }
+      for (int k = 0; k < K; ++k) keep_nearer<A>(q[k], int(pi), best[k]);
     });
   }
 }
@@ -329,327 +325,334 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
       int gpx[K][W], gpy[K][W];
       uint32_t gvalid[K] = {};
       RayPacket<A> gr[K];
-      for (int k = 0; k < K; ++k) {
-        int const bx = gx + (k & 1) * block_w<A>, by = gy + (k >> 1) * block_h<A>;
+      for (int pk = 0; pk < K; ++pk) {
+        int const bx = gx + (pk & 1) * block_w<A>, by = gy + (pk >> 1) * block_h<A>;
         if (bx >= tile.x0 + tile.w || by >= tile.y0 + tile.h) {
-          gr[k] = gr[0];  // no lanes (block 0 is always in the tile)
+          gr[pk] = gr[0];  // no lanes (block 0 is always in the tile)
           continue;
         }
-        gr[k] = camera_packet<A>(cam, tile, bx, by, gpx[k], gpy[k], gvalid[k]);
-        gr[k].tmin = zero;
-        gr[k].tmax = host_depth<A>(out, gpx[k], gpy[k], gvalid[k]);  // the host's opaque geometry hides what lies behind it
+        gr[pk] = camera_packet<A>(cam, tile, bx, by, gpx[pk], gpy[pk], gvalid[pk]);
+        gr[pk].tmin = zero;
+        // The host's opaque geometry hides what lies behind it.
+        gr[pk].tmax = host_depth<A>(out, gpx[pk], gpy[pk], gvalid[pk]);
       }
       SceneHit<A> first[K];
       if (grouped) nearest_hits<A, K>(s, gr, gvalid, isos, p.roots, query_gradient, param_attributes, first);
-    for (int k = 0; k < K; ++k) {
-      if (!gvalid[k]) continue;
-      int const(&px)[W] = gpx[k];
-      int const(&py)[W] = gpy[k];
-      uint32_t const valid = gvalid[k];
-      RayPacket<A> r = gr[k];
-      Vec3<A> const dir = ray_batch(r).dir();
-      vfloat<A> color_r = zero, color_g = zero, color_b = zero, alpha = zero;
-      vfloat<A> depth(std::numeric_limits<float>::infinity());
-      vfloat<A> const depth_at(out.depth_opacity);
-      uint32_t live = valid;
-      if (clipping) {
-        ClipSpan<A> const cs = clip_span<A>(s.clip, r, zero, r.tmax);
-        r.tmin = cs.t0, r.tmax = cs.t1;
-        live &= simd::movemask(cs.t0 <= cs.t1);
-        uint32_t const entering = live & simd::movemask(simd::to_float_mask(cs.entry >= vint<A>(0)));
-        if (s.clip.caps && entering) {
-          // A cap: the cut face where the ray enters the region inside the
-          // mesh, opaque, in front of everything the region holds.
-          auto const v = simd::to_array<A>(values_at<A>(s, r, cs.t0, simd::mask_from_bits<A>(entering), o.traversal,
-                                                        threshold));
-          auto const plane = simd::to_array<A>(cs.entry);
-          std::array<float, W> const dir_x = simd::to_array<A>(dir.x), dir_y = simd::to_array<A>(dir.y),
-                                     dir_z = simd::to_array<A>(dir.z);
-          alignas(64) float cr_[W] = {}, cg_[W] = {}, cb_[W] = {}, ca_[W] = {};
-          uint32_t capped = 0;
-          for (uint32_t bits = entering; bits; bits &= bits - 1) {
-            int const l = __builtin_ctz(bits);
-            if (!std::isfinite(v[size_t(l)])) continue;
-            int const k = plane[size_t(l)];
-            glm::vec3 const n(s.clip.nx[k], s.clip.ny[k], s.clip.nz[k]);  // faces the eye: the ray enters against it
-            glm::vec3 const d = glm::normalize(glm::vec3(dir_x[size_t(l)], dir_y[size_t(l)], dir_z[size_t(l)]));
-            glm::vec3 const to_l = headlight ? -d : light;
-            float const ndl = std::max(0.f, glm::dot(n, to_l));
-            float const ndh = std::max(0.f, glm::dot(n, glm::normalize(to_l - d)));
-            float const spec = ndl > 0.f ? p.specular * std::pow(ndh, p.shininess) : 0.f;
-            glm::vec3 const c = glm::min(table_color(s.clip.cap_colors, v[size_t(l)]) * (p.ambient + p.diffuse * ndl) + spec, 1.f);
-            cr_[l] = c.r, cg_[l] = c.g, cb_[l] = c.b, ca_[l] = 1.f;
-            capped |= 1u << l;
-          }
-          color_r = simd::load<A>(cr_), color_g = simd::load<A>(cg_), color_b = simd::load<A>(cb_);
-          alpha = simd::load<A>(ca_);
-          depth = simd::select(simd::mask_from_bits<A>(capped), cs.t0, depth);
-          live &= ~capped;
-        }
-      }
-      // Front-to-back layers: continue behind semi-transparent surfaces.
-      for (int layer = 0; layer < 16 && live; ++layer) {
-        SceneHit<A> const h = layer == 0 && grouped
-                                  ? first[k]
-                                  : nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots, o.traversal,
-                                                   threshold, query_gradient, param_attributes);
-        vmask<A> const hit = simd::mask_from_bits<A>(live) && simd::to_float_mask(h.item >= vint<A>(0));
-        uint32_t hit_bits = simd::movemask(hit);
-        if (!hit_bits) break;
-        // Hit points, normals and the light, all lanes at once (lanes
-        // without a hit compute garbage nobody reads); the shadow and AO
-        // rays below read them per lane.
-        vfloat<A> const t = simd::select(hit, h.t, zero);
-        Vec3<A> const hit_pos = eye + t * dir;
-        Vec3<A> normal{};
-        if (query_gradient) normal = face_forward<A>(shading_normal<A>(h.grad, dir), dir);
-        Vec3<A> const to_light = headlight ? vfloat<A>(-1.f) * normalized<A>(dir)
-                                           : Vec3<A>{vfloat<A>(light.x), vfloat<A>(light.y), vfloat<A>(light.z)};
-        std::array<float, W> const pos_a[3] = {simd::to_array<A>(hit_pos.x), simd::to_array<A>(hit_pos.y),
-                                               simd::to_array<A>(hit_pos.z)};
-        std::array<float, W> const ldir_a[3] = {simd::to_array<A>(to_light.x), simd::to_array<A>(to_light.y),
-                                                simd::to_array<A>(to_light.z)};
-        std::array<float, W> nrm_a[3] = {simd::to_array<A>(normal.x), simd::to_array<A>(normal.y),
-                                         simd::to_array<A>(normal.z)};
-        auto const iso = simd::to_array<A>(h.iso), item = simd::to_array<A>(h.item), part = simd::to_array<A>(h.part);
-        // Smooth normals and colour values, part by part for all hit lanes
-        // at once; the lanes that leaves go one by one below.
-        uint32_t packet_done = 0;
-        std::array<float, W> packet_normal[3] = {}, packet_value = {}, param_a[3] = {};
-        if (attributes) {
-          Vec3<A> pn{};
-          vfloat<A> pv(std::numeric_limits<float>::quiet_NaN());
-          for (size_t pi = 0; pi < s.parts.size(); ++pi) {
-            vmask<A> const in_part = hit && simd::to_float_mask(h.part == vint<A>(int32_t(pi)));
-            if (simd::none(in_part)) continue;
-            PreparedPart const& pp = s.parts[pi];
-            Vec3<A> n{};
-            vfloat<A> v(0.f);
-            vmask<A> const done = pp.visit([&](auto const& mesh, auto const*) {
-              return hit_attributes_packet<A>(pp, mesh, in_part, h.item, hit_pos, h.param, dir, smooth, s.color_by, n,
-                                              v);
-            });
-            pn = select<A>(done, n, pn);
-            pv = simd::select(done, v, pv);
-            packet_done |= simd::movemask(done);
-          }
-          packet_normal[0] = simd::to_array<A>(pn.x), packet_normal[1] = simd::to_array<A>(pn.y),
-          packet_normal[2] = simd::to_array<A>(pn.z), packet_value = simd::to_array<A>(pv);
-          if (param_attributes && (hit_bits & ~packet_done))
-            param_a[0] = simd::to_array<A>(h.param.x), param_a[1] = simd::to_array<A>(h.param.y),
-            param_a[2] = simd::to_array<A>(h.param.z);
-        }
-        glm::vec3 pos[W], nrm[W], ldir[W];
-        alignas(64) float base_r[W] = {}, base_g[W] = {}, base_b[W] = {}, opacity[W] = {};
-        std::array<float, W> dir_a[3];
-        if (!query_gradient) dir_a[0] = simd::to_array<A>(dir.x), dir_a[1] = simd::to_array<A>(dir.y),
-                             dir_a[2] = simd::to_array<A>(dir.z);
-        for (uint32_t bits = hit_bits; bits; bits &= bits - 1) {
-          int const l = __builtin_ctz(bits);
-          PreparedPart const& hit_part = s.parts[size_t(part[l])];
-          glm::vec3 n(0.f);
-          float colour_value = std::numeric_limits<float>::quiet_NaN();
-          if (attributes && (packet_done >> l & 1u)) {
-            if (smooth) n = lane_vec<W>(packet_normal, l);
-            if (s.color_by) colour_value = packet_value[size_t(l)];
-          } else if (attributes) {  // one location of the hit for both
-            bool const with_param = keeps_param(hit_part);
-            glm::vec3 const param = with_param ? lane_vec<W>(param_a, l) : glm::vec3(0.f);
-            hit_attributes(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l),
-                           smooth ? lane_vec<W>(dir_a, l) : glm::vec3(0.f),  // dir_a is filled when normals are not analytic
-                           smooth ? &n : nullptr, s.color_by ? &colour_value : nullptr,
-                           with_param ? &param : nullptr);
-          }
-          if (!query_gradient) {
-            if (!smooth) n = normal_at(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l), lane_vec<W>(dir_a, l), p.normals);
-            nrm_a[0][size_t(l)] = n.x, nrm_a[1][size_t(l)] = n.y, nrm_a[2][size_t(l)] = n.z;
-          }
-          // Per-lane copies only for the shadow and AO rays below.
-          if (secondary) pos[l] = lane_vec<W>(pos_a, l), ldir[l] = lane_vec<W>(ldir_a, l), nrm[l] = lane_vec<W>(nrm_a, l);
-          IsoSurface const& surf = p.surfaces[size_t(iso[l])];
-          glm::vec3 const base = std::isfinite(colour_value) ? table_color(s.colors, colour_value) : surf.color;
-          base_r[l] = base.r, base_g[l] = base.g, base_b[l] = base.b;
-          opacity[l] = surf.opacity;
-        }
-        if (!query_gradient) normal = {simd::load<A>(nrm_a[0].data()), simd::load<A>(nrm_a[1].data()),
-                                       simd::load<A>(nrm_a[2].data())};
-        float visibility[W], occlusion[W];
-        for (int l = 0; l < W; ++l) visibility[l] = 1.f, occlusion[l] = 0.f;
-        // Shadow and AO rays (RenderOptions::secondary_query). Any-hit
-        // queries give the nearest hit's answer whenever only its existence
-        // matters: AO always, shadows when every surface has one opacity.
-        bool const any_hit = o.secondary_query != SecondaryQuery::nearest;
-        if (hit_bits && p.shadows) {
-          Ray sr[W];
-          for (int l = 0; l < W; ++l) {
-            bool const h1 = (hit_bits >> l) & 1u;
-            glm::vec3 const o = pos[l] + eps * nrm[l];
-            float const far = clipping && h1 ? clip_exit(s.clip, o, ldir[l], std::numeric_limits<float>::infinity())
-                                             : std::numeric_limits<float>::infinity();
-            sr[l] = Ray{h1 ? o : cam.eye, h1 ? eps : 0.f, h1 ? ldir[l] : glm::vec3(0, 0, 1),
-                        h1 ? std::max(eps, far) : -1.f};
-          }
-          RayPacket<A> const srp = load_rays<A>(sr, W);
-          if (any_hit && one_opacity) {
-            vmask<A> const lanes = simd::mask_from_bits<A>(hit_bits);
-            // Every any-hit query (grouped too) traces a pixel block's shadow
-            // rays as one packet: they leave nearby points in one direction,
-            // so the packet clip's lanes are mostly busy. (Through
-            // occluded_packets' (cell, ray) pairs instead: 20% fewer
-            // instructions, callgrind AVX2, but a 2.5-3% slower frame,
-            // AVX-512 and AVX2 on an AMD EPYC, component8 and a 2M-tet mesh.)
-            uint32_t const occ =
-                simd::movemask(scene_occluded<A>(s, srp, lanes, isos, p.roots, o.secondary_traversal, threshold));
-            for (int l = 0; l < W; ++l)
-              if ((hit_bits & occ) >> l & 1u) visibility[l] = 1.f - p.surfaces[0].opacity;
-          } else {
-            SceneHit<A> const sh = nearest_hit<A>(s, srp, simd::mask_from_bits<A>(hit_bits), isos, p.roots,
-                                                  o.secondary_traversal, threshold);
-            auto const sitem = simd::to_array<A>(sh.item), siso = simd::to_array<A>(sh.iso);
-            for (int l = 0; l < W; ++l)
-              if (((hit_bits >> l) & 1u) && sitem[l] >= 0) visibility[l] = 1.f - p.surfaces[size_t(siso[l])].opacity;
-          }
-        }
-        // AO ray k of lane l (a hit lane): cosine-weighted about the normal,
-        // directions from the pixel's hash (the same on every ISA).
-        auto const ao_ray = [&](int l, int k) {
-          uint32_t const pix = uint32_t(py[l]) * uint32_t(cam.width) + uint32_t(px[l]);
-          float const u1 = pixel_hash01(pix, uint32_t(2 * k + 64 * layer));
-          float const u2 = pixel_hash01(pix, uint32_t(2 * k + 1 + 64 * layer));
-          float const rr = std::sqrt(u1), phi = 6.2831853f * u2;
-          glm::vec3 const n = nrm[l];
-          glm::vec3 const a = std::fabs(n.x) > 0.5f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
-          glm::vec3 const tx = glm::normalize(glm::cross(a, n)), ty = glm::cross(n, tx);
-          glm::vec3 const d = rr * std::cos(phi) * tx + rr * std::sin(phi) * ty + std::sqrt(std::max(0.f, 1.f - u1)) * n;
-          glm::vec3 const o = pos[l] + eps * nrm[l];
-          return Ray{o, eps, d, clipping ? std::max(eps, clip_exit(s.clip, o, d, ao_radius)) : ao_radius};
-        };
-        bool const regroup = o.secondary_query == SecondaryQuery::sorted || o.secondary_query == SecondaryQuery::grouped ||
-                             (o.secondary_query == SecondaryQuery::march && !march_ao);
-        if (hit_bits && p.ao_samples > 0 && march_ao) {
-          // Each hit lane's AO rays march from its hit cell; what a march
-          // cannot finish (it left the mesh, or its origin lies just outside
-          // the hit cell) goes on from where it got to through the grouped
-          // query, a chunk of samples at a time.
-          constexpr int chunk = std::min(4, max_sorted_rays / W);
-          PreparedPart const& part = s.parts[0];
-          vmask<A> const lanes = simd::mask_from_bits<A>(hit_bits);
-          // h.item: item-list slots of the hit's part (a mixed march: the
-          // tets, part 0, or the hexahedra, part 1)
-          vmask<A> const in_second = lanes && simd::to_float_mask(h.part == vint<A>(1));
-          vint<A> hit_cells = slot_cells<A>(part.tree, h.item, lanes && !in_second);
-          if (s.mixed_march && simd::any(in_second))
-            hit_cells = simd::select(simd::to_int_mask(in_second), slot_cells<A>(s.parts[1].tree, h.item, in_second),
-                                     hit_cells);
-          Ray rest[W * chunk];
-          uint8_t owner[W * chunk];
-          uint64_t occ_rest[(W * chunk + 63) / 64];
-          for (int k0 = 0; k0 < p.ao_samples; k0 += chunk) {
-            int n = 0;
-            for (int k = k0; k < std::min(p.ao_samples, k0 + chunk); ++k) {
-              Ray ar[W];
-              for (int l = 0; l < W; ++l)
-                ar[l] = (hit_bits >> l) & 1u ? ao_ray(l, k) : Ray{cam.eye, 0.f, glm::vec3(0, 0, 1), -1.f};
-              RayPacket<A> const arp = load_rays<A>(ar, W);
-              vmask<A> undecided;
-              vfloat<A> t_done;
-              vmask<A> occ_lanes;
-              if (s.mixed_march) {
-                PartCells<4> const& t = *s.parts[0].cells_of<4>();  // prepare() checked both
-                PartCells<8> const& hx = *s.parts[1].cells_of<8>();
-                occ_lanes = march_occluded<A>(s.parts[0].tree, *t.mesh, *t.neighbours, s.parts[1].tree, *hx.mesh,
-                                              *hx.neighbours, arp, lanes, hit_cells, in_second, isos, p.roots,
-                                              undecided, t_done);
-              } else {
-                occ_lanes = part.visit([&](auto const& mesh, auto const* neighbours) {
-                  return march_occluded<A>(part.tree, mesh, *neighbours, arp, lanes, hit_cells, isos, p.roots,
-                                           undecided, t_done);
-                });
-              }
-              uint32_t const occ = simd::movemask(occ_lanes) & hit_bits;
-              for (int l = 0; l < W; ++l)
-                if (occ >> l & 1u) occlusion[l] += 1.f / float(p.ao_samples);
-              auto const from = simd::to_array<A>(t_done);
-              for (uint32_t b = simd::movemask(undecided); b; b &= b - 1) {
-                int const l = __builtin_ctz(b);
-                rest[n] = ar[l], rest[n].tmin = from[size_t(l)], owner[n] = uint8_t(l), ++n;
-              }
+      for (int pk = 0; pk < K; ++pk) {
+        if (!gvalid[pk]) continue;
+        int const(&px)[W] = gpx[pk];
+        int const(&py)[W] = gpy[pk];
+        uint32_t const valid = gvalid[pk];
+        RayPacket<A> r = gr[pk];
+        Vec3<A> const dir = ray_batch(r).dir();
+        vfloat<A> color_r = zero, color_g = zero, color_b = zero, alpha = zero;
+        vfloat<A> depth(std::numeric_limits<float>::infinity());
+        vfloat<A> const depth_at(out.depth_opacity);
+        uint32_t live = valid;
+        if (clipping) {
+          ClipSpan<A> const cs = clip_span<A>(s.clip, r, zero, r.tmax);
+          r.tmin = cs.t0, r.tmax = cs.t1;
+          live &= simd::movemask(cs.t0 <= cs.t1);
+          uint32_t const entering = live & simd::movemask(simd::to_float_mask(cs.entry >= vint<A>(0)));
+          if (s.clip.caps && entering) {
+            // A cap: the cut face where the ray enters the region inside the
+            // mesh, opaque, in front of everything the region holds.
+            auto const v = simd::to_array<A>(values_at<A>(s, r, cs.t0, simd::mask_from_bits<A>(entering), o.traversal,
+                                                          threshold));
+            auto const plane = simd::to_array<A>(cs.entry);
+            std::array<float, W> const dir_x = simd::to_array<A>(dir.x), dir_y = simd::to_array<A>(dir.y),
+                                       dir_z = simd::to_array<A>(dir.z);
+            alignas(64) float cr_[W] = {}, cg_[W] = {}, cb_[W] = {}, ca_[W] = {};
+            uint32_t capped = 0;
+            for (uint32_t bits = entering; bits; bits &= bits - 1) {
+              int const l = __builtin_ctz(bits);
+              if (!std::isfinite(v[size_t(l)])) continue;
+              int const k = plane[size_t(l)];
+              glm::vec3 const n(s.clip.nx[k], s.clip.ny[k], s.clip.nz[k]);  // faces the eye: the ray enters against it
+              glm::vec3 const d = glm::normalize(glm::vec3(dir_x[size_t(l)], dir_y[size_t(l)], dir_z[size_t(l)]));
+              glm::vec3 const to_l = headlight ? -d : light;
+              float const ndl = std::max(0.f, glm::dot(n, to_l));
+              float const ndh = std::max(0.f, glm::dot(n, glm::normalize(to_l - d)));
+              float const spec = ndl > 0.f ? p.specular * std::pow(ndh, p.shininess) : 0.f;
+              glm::vec3 const c =
+                  glm::min(table_color(s.clip.cap_colors, v[size_t(l)]) * (p.ambient + p.diffuse * ndl) + spec, 1.f);
+              cr_[l] = c.r, cg_[l] = c.g, cb_[l] = c.b, ca_[l] = 1.f;
+              capped |= 1u << l;
             }
-            if (n == 0) continue;
-            scene_occluded_sorted<A>(s, rest, n, isos, p.roots, o.secondary_traversal, threshold, true, occ_rest);
-            for (int i = 0; i < n; ++i)
-              if (occ_rest[i / 64] >> (i % 64) & 1u) occlusion[owner[i]] += 1.f / float(p.ao_samples);
+            color_r = simd::load<A>(cr_), color_g = simd::load<A>(cg_), color_b = simd::load<A>(cb_);
+            alpha = simd::load<A>(ca_);
+            depth = simd::select(simd::mask_from_bits<A>(capped), cs.t0, depth);
+            live &= ~capped;
           }
         }
-        if (hit_bits && p.ao_samples > 0 && regroup) {
-          // A chunk of samples of every hit lane, regrouped by direction.
-          constexpr int chunk = std::min(4, max_sorted_rays / W);
-          Ray ar[W * chunk];
-          uint8_t owner[W * chunk];
-          uint64_t occ[(W * chunk + 63) / 64];
-          for (int k0 = 0; k0 < p.ao_samples; k0 += chunk) {
-            int n = 0;
-            for (int k = k0; k < std::min(p.ao_samples, k0 + chunk); ++k)
-              for (uint32_t b = hit_bits; b; b &= b - 1) {
-                int const l = __builtin_ctz(b);
-                ar[n] = ao_ray(l, k), owner[n] = uint8_t(l), ++n;
+        // Front-to-back layers: continue behind semi-transparent surfaces.
+        for (int layer = 0; layer < 16 && live; ++layer) {
+          SceneHit<A> const h = layer == 0 && grouped
+                                    ? first[pk]
+                                    : nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots, o.traversal,
+                                                     threshold, query_gradient, param_attributes);
+          vmask<A> const hit = simd::mask_from_bits<A>(live) && simd::to_float_mask(h.item >= vint<A>(0));
+          uint32_t hit_bits = simd::movemask(hit);
+          if (!hit_bits) break;
+          // Hit points, normals and the light, all lanes at once (lanes
+          // without a hit compute garbage nobody reads); the shadow and AO
+          // rays below read them per lane.
+          vfloat<A> const t = simd::select(hit, h.t, zero);
+          Vec3<A> const hit_pos = eye + t * dir;
+          Vec3<A> normal{};
+          if (query_gradient) normal = face_forward<A>(shading_normal<A>(h.grad, dir), dir);
+          Vec3<A> const to_light = headlight ? vfloat<A>(-1.f) * normalized<A>(dir)
+                                             : Vec3<A>{vfloat<A>(light.x), vfloat<A>(light.y), vfloat<A>(light.z)};
+          std::array<float, W> const pos_a[3] = {simd::to_array<A>(hit_pos.x), simd::to_array<A>(hit_pos.y),
+                                                 simd::to_array<A>(hit_pos.z)};
+          std::array<float, W> const ldir_a[3] = {simd::to_array<A>(to_light.x), simd::to_array<A>(to_light.y),
+                                                  simd::to_array<A>(to_light.z)};
+          std::array<float, W> nrm_a[3] = {simd::to_array<A>(normal.x), simd::to_array<A>(normal.y),
+                                           simd::to_array<A>(normal.z)};
+          auto const iso = simd::to_array<A>(h.iso), item = simd::to_array<A>(h.item), part = simd::to_array<A>(h.part);
+          // Smooth normals and colour values, part by part for all hit lanes
+          // at once; the lanes that leaves go one by one below.
+          uint32_t packet_done = 0;
+          std::array<float, W> packet_normal[3] = {}, packet_value = {}, param_a[3] = {};
+          if (attributes) {
+            Vec3<A> pn{};
+            vfloat<A> pv(std::numeric_limits<float>::quiet_NaN());
+            for (size_t pi = 0; pi < s.parts.size(); ++pi) {
+              vmask<A> const in_part = hit && simd::to_float_mask(h.part == vint<A>(int32_t(pi)));
+              if (simd::none(in_part)) continue;
+              PreparedPart const& pp = s.parts[pi];
+              Vec3<A> n{};
+              vfloat<A> v(0.f);
+              vmask<A> const done = pp.visit([&](auto const& mesh, auto const*) {
+                return hit_attributes_packet<A>(pp, mesh, in_part, h.item, hit_pos, h.param, dir, smooth, s.color_by, n,
+                                                v);
+              });
+              pn = select<A>(done, n, pn);
+              pv = simd::select(done, v, pv);
+              packet_done |= simd::movemask(done);
+            }
+            packet_normal[0] = simd::to_array<A>(pn.x), packet_normal[1] = simd::to_array<A>(pn.y),
+            packet_normal[2] = simd::to_array<A>(pn.z), packet_value = simd::to_array<A>(pv);
+            if (param_attributes && (hit_bits & ~packet_done))
+              param_a[0] = simd::to_array<A>(h.param.x), param_a[1] = simd::to_array<A>(h.param.y),
+              param_a[2] = simd::to_array<A>(h.param.z);
+          }
+          glm::vec3 pos[W], nrm[W], ldir[W];
+          alignas(64) float base_r[W] = {}, base_g[W] = {}, base_b[W] = {}, opacity[W] = {};
+          std::array<float, W> dir_a[3];
+          if (!query_gradient) dir_a[0] = simd::to_array<A>(dir.x), dir_a[1] = simd::to_array<A>(dir.y),
+                               dir_a[2] = simd::to_array<A>(dir.z);
+          for (uint32_t bits = hit_bits; bits; bits &= bits - 1) {
+            int const l = __builtin_ctz(bits);
+            PreparedPart const& hit_part = s.parts[size_t(part[l])];
+            glm::vec3 n(0.f);
+            float colour_value = std::numeric_limits<float>::quiet_NaN();
+            if (attributes && (packet_done >> l & 1u)) {
+              if (smooth) n = lane_vec<W>(packet_normal, l);
+              if (s.color_by) colour_value = packet_value[size_t(l)];
+            } else if (attributes) {  // one location of the hit for both
+              bool const with_param = keeps_param(hit_part);
+              glm::vec3 const param = with_param ? lane_vec<W>(param_a, l) : glm::vec3(0.f);
+              hit_attributes(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l),
+                             // dir_a is filled when normals are not analytic
+                             smooth ? lane_vec<W>(dir_a, l) : glm::vec3(0.f),
+                             smooth ? &n : nullptr, s.color_by ? &colour_value : nullptr,
+                             with_param ? &param : nullptr);
+            }
+            if (!query_gradient) {
+              if (!smooth)
+                n = normal_at(hit_part, uint64_t(item[l]), lane_vec<W>(pos_a, l), lane_vec<W>(dir_a, l), p.normals);
+              nrm_a[0][size_t(l)] = n.x, nrm_a[1][size_t(l)] = n.y, nrm_a[2][size_t(l)] = n.z;
+            }
+            // Per-lane copies only for the shadow and AO rays below.
+            if (secondary)
+              pos[l] = lane_vec<W>(pos_a, l), ldir[l] = lane_vec<W>(ldir_a, l), nrm[l] = lane_vec<W>(nrm_a, l);
+            IsoSurface const& surf = p.surfaces[size_t(iso[l])];
+            glm::vec3 const base = std::isfinite(colour_value) ? table_color(s.colors, colour_value) : surf.color;
+            base_r[l] = base.r, base_g[l] = base.g, base_b[l] = base.b;
+            opacity[l] = surf.opacity;
+          }
+          if (!query_gradient) normal = {simd::load<A>(nrm_a[0].data()), simd::load<A>(nrm_a[1].data()),
+                                         simd::load<A>(nrm_a[2].data())};
+          float visibility[W], occlusion[W];
+          for (int l = 0; l < W; ++l) visibility[l] = 1.f, occlusion[l] = 0.f;
+          // Shadow and AO rays (RenderOptions::secondary_query). Any-hit
+          // queries give the nearest hit's answer whenever only its existence
+          // matters: AO always, shadows when every surface has one opacity.
+          bool const any_hit = o.secondary_query != SecondaryQuery::nearest;
+          if (hit_bits && p.shadows) {
+            Ray sr[W];
+            for (int l = 0; l < W; ++l) {
+              bool const h1 = (hit_bits >> l) & 1u;
+              glm::vec3 const o = pos[l] + eps * nrm[l];
+              float const far = clipping && h1 ? clip_exit(s.clip, o, ldir[l], std::numeric_limits<float>::infinity())
+                                               : std::numeric_limits<float>::infinity();
+              sr[l] = Ray{h1 ? o : cam.eye, h1 ? eps : 0.f, h1 ? ldir[l] : glm::vec3(0, 0, 1),
+                          h1 ? std::max(eps, far) : -1.f};
+            }
+            RayPacket<A> const srp = load_rays<A>(sr, W);
+            if (any_hit && one_opacity) {
+              vmask<A> const lanes = simd::mask_from_bits<A>(hit_bits);
+              // Every any-hit query (grouped too) traces a pixel block's shadow
+              // rays as one packet: they leave nearby points in one direction,
+              // so the packet clip's lanes are mostly busy. (Through
+              // occluded_packets' (cell, ray) pairs instead: 20% fewer
+              // instructions, callgrind AVX2, but a 2.5-3% slower frame,
+              // AVX-512 and AVX2 on an AMD EPYC, component8 and a 2M-tet mesh.)
+              uint32_t const occ =
+                  simd::movemask(scene_occluded<A>(s, srp, lanes, isos, p.roots, o.secondary_traversal, threshold));
+              for (int l = 0; l < W; ++l)
+                if ((hit_bits & occ) >> l & 1u) visibility[l] = 1.f - p.surfaces[0].opacity;
+            } else {
+              SceneHit<A> const sh = nearest_hit<A>(s, srp, simd::mask_from_bits<A>(hit_bits), isos, p.roots,
+                                                    o.secondary_traversal, threshold);
+              auto const sitem = simd::to_array<A>(sh.item), siso = simd::to_array<A>(sh.iso);
+              for (int l = 0; l < W; ++l)
+                if (((hit_bits >> l) & 1u) && sitem[l] >= 0) visibility[l] = 1.f - p.surfaces[size_t(siso[l])].opacity;
+            }
+          }
+          // AO ray k of lane l (a hit lane): cosine-weighted about the normal,
+          // directions from the pixel's hash (the same on every ISA).
+          auto const ao_ray = [&](int l, int k) {
+            uint32_t const pix = uint32_t(py[l]) * uint32_t(cam.width) + uint32_t(px[l]);
+            float const u1 = pixel_hash01(pix, uint32_t(2 * k + 64 * layer));
+            float const u2 = pixel_hash01(pix, uint32_t(2 * k + 1 + 64 * layer));
+            float const rr = std::sqrt(u1), phi = 6.2831853f * u2;
+            glm::vec3 const n = nrm[l];
+            glm::vec3 const a = std::fabs(n.x) > 0.5f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
+            glm::vec3 const tx = glm::normalize(glm::cross(a, n)), ty = glm::cross(n, tx);
+            glm::vec3 const d =
+                rr * std::cos(phi) * tx + rr * std::sin(phi) * ty + std::sqrt(std::max(0.f, 1.f - u1)) * n;
+            glm::vec3 const o = pos[l] + eps * nrm[l];
+            return Ray{o, eps, d, clipping ? std::max(eps, clip_exit(s.clip, o, d, ao_radius)) : ao_radius};
+          };
+          bool const regroup = o.secondary_query == SecondaryQuery::sorted || o.secondary_query == SecondaryQuery::grouped ||
+                               (o.secondary_query == SecondaryQuery::march && !march_ao);
+          if (hit_bits && p.ao_samples > 0 && march_ao) {
+            // Each hit lane's AO rays march from its hit cell; what a march
+            // cannot finish (it left the mesh, or its origin lies just outside
+            // the hit cell) goes on from where it got to through the grouped
+            // query, a chunk of samples at a time.
+            constexpr int chunk = std::min(4, max_sorted_rays / W);
+            PreparedPart const& part = s.parts[0];
+            vmask<A> const lanes = simd::mask_from_bits<A>(hit_bits);
+            // h.item: item-list slots of the hit's part (a mixed march: the
+            // tets, part 0, or the hexahedra, part 1)
+            vmask<A> const in_second = lanes && simd::to_float_mask(h.part == vint<A>(1));
+            vint<A> hit_cells = slot_cells<A>(part.tree, h.item, lanes && !in_second);
+            if (s.mixed_march && simd::any(in_second))
+              hit_cells = simd::select(simd::to_int_mask(in_second), slot_cells<A>(s.parts[1].tree, h.item, in_second),
+                                       hit_cells);
+            Ray rest[W * chunk];
+            uint8_t owner[W * chunk];
+            uint64_t occ_rest[(W * chunk + 63) / 64];
+            for (int k0 = 0; k0 < p.ao_samples; k0 += chunk) {
+              int n = 0;
+              for (int k = k0; k < std::min(p.ao_samples, k0 + chunk); ++k) {
+                Ray ar[W];
+                for (int l = 0; l < W; ++l)
+                  ar[l] = (hit_bits >> l) & 1u ? ao_ray(l, k) : Ray{cam.eye, 0.f, glm::vec3(0, 0, 1), -1.f};
+                RayPacket<A> const arp = load_rays<A>(ar, W);
+                vmask<A> undecided;
+                vfloat<A> t_done;
+                vmask<A> occ_lanes;
+                if (s.mixed_march) {
+                  PartCells<4> const& t = *s.parts[0].cells_of<4>();  // prepare() checked both
+                  PartCells<8> const& hx = *s.parts[1].cells_of<8>();
+                  occ_lanes = march_occluded<A>(s.parts[0].tree, *t.mesh, *t.neighbours, s.parts[1].tree, *hx.mesh,
+                                                *hx.neighbours, arp, lanes, hit_cells, in_second, isos, p.roots,
+                                                undecided, t_done);
+                } else {
+                  occ_lanes = part.visit([&](auto const& mesh, auto const* neighbours) {
+                    return march_occluded<A>(part.tree, mesh, *neighbours, arp, lanes, hit_cells, isos, p.roots,
+                                             undecided, t_done);
+                  });
+                }
+                uint32_t const occ = simd::movemask(occ_lanes) & hit_bits;
+                for (int l = 0; l < W; ++l)
+                  if (occ >> l & 1u) occlusion[l] += 1.f / float(p.ao_samples);
+                auto const from = simd::to_array<A>(t_done);
+                for (uint32_t b = simd::movemask(undecided); b; b &= b - 1) {
+                  int const l = __builtin_ctz(b);
+                  rest[n] = ar[l], rest[n].tmin = from[size_t(l)], owner[n] = uint8_t(l), ++n;
+                }
               }
-            scene_occluded_sorted<A>(s, ar, n, isos, p.roots, o.secondary_traversal, threshold,
-                                     o.secondary_query == SecondaryQuery::grouped, occ);
-            for (int i = 0; i < n; ++i)
-              if (occ[i / 64] >> (i % 64) & 1u) occlusion[owner[i]] += 1.f / float(p.ao_samples);
+              if (n == 0) continue;
+              scene_occluded_sorted<A>(s, rest, n, isos, p.roots, o.secondary_traversal, threshold, true, occ_rest);
+              for (int i = 0; i < n; ++i)
+                if (occ_rest[i / 64] >> (i % 64) & 1u) occlusion[owner[i]] += 1.f / float(p.ao_samples);
+            }
           }
-        }
-        for (int k = 0; hit_bits && k < p.ao_samples && !regroup && !march_ao; ++k) {
-          Ray ar[W];
-          for (int l = 0; l < W; ++l)
-            ar[l] = (hit_bits >> l) & 1u ? ao_ray(l, k) : Ray{cam.eye, 0.f, glm::vec3(0, 0, 1), -1.f};
-          RayPacket<A> const arp = load_rays<A>(ar, W);
-          uint32_t occ = 0;
-          if (any_hit) {
-            occ = simd::movemask(scene_occluded<A>(s, arp, simd::mask_from_bits<A>(hit_bits), isos, p.roots,
-                                                   o.secondary_traversal, threshold));
-          } else {
-            SceneHit<A> const ah = nearest_hit<A>(s, arp, simd::mask_from_bits<A>(hit_bits), isos, p.roots,
-                                                  o.secondary_traversal, threshold);
-            occ = simd::movemask(simd::to_float_mask(ah.item >= vint<A>(0)));
+          if (hit_bits && p.ao_samples > 0 && regroup) {
+            // A chunk of samples of every hit lane, regrouped by direction.
+            constexpr int chunk = std::min(4, max_sorted_rays / W);
+            Ray ar[W * chunk];
+            uint8_t owner[W * chunk];
+            uint64_t occ[(W * chunk + 63) / 64];
+            for (int k0 = 0; k0 < p.ao_samples; k0 += chunk) {
+              int n = 0;
+              for (int k = k0; k < std::min(p.ao_samples, k0 + chunk); ++k)
+                for (uint32_t b = hit_bits; b; b &= b - 1) {
+                  int const l = __builtin_ctz(b);
+                  ar[n] = ao_ray(l, k), owner[n] = uint8_t(l), ++n;
+                }
+              scene_occluded_sorted<A>(s, ar, n, isos, p.roots, o.secondary_traversal, threshold,
+                                       o.secondary_query == SecondaryQuery::grouped, occ);
+              for (int i = 0; i < n; ++i)
+                if (occ[i / 64] >> (i % 64) & 1u) occlusion[owner[i]] += 1.f / float(p.ao_samples);
+            }
           }
-          for (int l = 0; l < W; ++l)
-            if ((hit_bits & occ) >> l & 1u) occlusion[l] += 1.f / float(p.ao_samples);
+          for (int k = 0; hit_bits && k < p.ao_samples && !regroup && !march_ao; ++k) {
+            Ray ar[W];
+            for (int l = 0; l < W; ++l)
+              ar[l] = (hit_bits >> l) & 1u ? ao_ray(l, k) : Ray{cam.eye, 0.f, glm::vec3(0, 0, 1), -1.f};
+            RayPacket<A> const arp = load_rays<A>(ar, W);
+            uint32_t occ = 0;
+            if (any_hit) {
+              occ = simd::movemask(scene_occluded<A>(s, arp, simd::mask_from_bits<A>(hit_bits), isos, p.roots,
+                                                     o.secondary_traversal, threshold));
+            } else {
+              SceneHit<A> const ah = nearest_hit<A>(s, arp, simd::mask_from_bits<A>(hit_bits), isos, p.roots,
+                                                    o.secondary_traversal, threshold);
+              occ = simd::movemask(simd::to_float_mask(ah.item >= vint<A>(0)));
+            }
+            for (int l = 0; l < W; ++l)
+              if ((hit_bits & occ) >> l & 1u) occlusion[l] += 1.f / float(p.ao_samples);
+          }
+          // Lambert + Blinn-Phong, W lanes at once.
+          Vec3<A> const to_eye = vfloat<A>(-1.f) * normalized<A>(dir);
+          vfloat<A> const ndl = simd::max(zero, dot(normal, to_light));
+          vfloat<A> const ndh = simd::max(zero, dot(normal, normalized<A>(to_light + to_eye)));
+          vfloat<A> const vis = simd::load<A>(visibility);
+          vfloat<A> const spec =
+              simd::select(ndl > zero, vfloat<A>(p.specular) * pow_batch<A>(ndh, p.shininess) * vis, zero);
+          vfloat<A> const light_in =
+              vfloat<A>(p.ambient) * (one - simd::load<A>(occlusion)) + vfloat<A>(p.diffuse) * ndl * vis;
+          // Ambient + diffuse + specular can sum past 1 (defaults: 0.2 + 0.7 +
+          // 0.25); the image holds [0, 1] (image.hpp), so clamp here, before
+          // compositing, not only when writing 8 bits.
+          vfloat<A> const a = simd::select(hit, simd::load<A>(opacity) * (one - alpha), zero);
+          color_r = color_r + a * simd::min(simd::load<A>(base_r) * light_in + spec, one);
+          color_g = color_g + a * simd::min(simd::load<A>(base_g) * light_in + spec, one);
+          color_b = color_b + a * simd::min(simd::load<A>(base_b) * light_in + spec, one);
+          depth = simd::select(hit && alpha < depth_at && alpha + a >= depth_at, t, depth);
+          alpha = alpha + a;
+          vmask<A> const next = hit && alpha < vfloat<A>(0.99f);
+          r.tmin = simd::select(next, t + simd::max(vfloat<A>(eps), vfloat<A>(1e-5f) * t), r.tmin);
+          live = simd::movemask(next);
         }
-        // Lambert + Blinn-Phong, W lanes at once.
-        Vec3<A> const to_eye = vfloat<A>(-1.f) * normalized<A>(dir);
-        vfloat<A> const ndl = simd::max(zero, dot(normal, to_light));
-        vfloat<A> const ndh = simd::max(zero, dot(normal, normalized<A>(to_light + to_eye)));
-        vfloat<A> const vis = simd::load<A>(visibility);
-        vfloat<A> const spec =
-            simd::select(ndl > zero, vfloat<A>(p.specular) * pow_batch<A>(ndh, p.shininess) * vis, zero);
-        vfloat<A> const light_in = vfloat<A>(p.ambient) * (one - simd::load<A>(occlusion)) + vfloat<A>(p.diffuse) * ndl * vis;
-        // Ambient + diffuse + specular can sum past 1 (defaults: 0.2 + 0.7 +
-        // 0.25); the image holds [0, 1] (image.hpp), so clamp here, before
-        // compositing, not only when writing 8 bits.
-        vfloat<A> const a = simd::select(hit, simd::load<A>(opacity) * (one - alpha), zero);
-        color_r = color_r + a * simd::min(simd::load<A>(base_r) * light_in + spec, one);
-        color_g = color_g + a * simd::min(simd::load<A>(base_g) * light_in + spec, one);
-        color_b = color_b + a * simd::min(simd::load<A>(base_b) * light_in + spec, one);
-        depth = simd::select(hit && alpha < depth_at && alpha + a >= depth_at, t, depth);
-        alpha = alpha + a;
-        vmask<A> const next = hit && alpha < vfloat<A>(0.99f);
-        r.tmin = simd::select(next, t + simd::max(vfloat<A>(eps), vfloat<A>(1e-5f) * t), r.tmin);
-        live = simd::movemask(next);
+        vfloat<A> const bg_a(p.background.a), rest = (one - alpha) * bg_a;
+        auto const cr = simd::to_array<A>(color_r + rest * vfloat<A>(p.background.r));
+        auto const cg = simd::to_array<A>(color_g + rest * vfloat<A>(p.background.g));
+        auto const cb = simd::to_array<A>(color_b + rest * vfloat<A>(p.background.b));
+        auto const ca = simd::to_array<A>(alpha + rest);
+        auto const cd = simd::to_array<A>(depth);
+        for (uint32_t bits = valid; bits; bits &= bits - 1) {
+          int const l = __builtin_ctz(bits);
+          put_pixel(out, px[l], py[l], cr[size_t(l)], cg[size_t(l)], cb[size_t(l)], ca[size_t(l)]);
+          if (out.depth_out) put_depth(out, px[l], py[l], cd[size_t(l)]);
+        }
       }
-      vfloat<A> const bg_a(p.background.a), rest = (one - alpha) * bg_a;
-      auto const cr = simd::to_array<A>(color_r + rest * vfloat<A>(p.background.r));
-      auto const cg = simd::to_array<A>(color_g + rest * vfloat<A>(p.background.g));
-      auto const cb = simd::to_array<A>(color_b + rest * vfloat<A>(p.background.b));
-      auto const ca = simd::to_array<A>(alpha + rest);
-      auto const cd = simd::to_array<A>(depth);
-      for (uint32_t bits = valid; bits; bits &= bits - 1) {
-        int const l = __builtin_ctz(bits);
-        put_pixel(out, px[l], py[l], cr[size_t(l)], cg[size_t(l)], cb[size_t(l)], ca[size_t(l)]);
-        if (out.depth_out) put_depth(out, px[l], py[l], cd[size_t(l)]);
-      }
-    }
     }
 }
 

@@ -109,7 +109,9 @@ void dvr_first_cells(PreparedScene const& s, RayPacket<A> const (&r)[K], DvrSpan
   PreparedPart const& pp = s.parts[0];
   pp.visit([&](auto const& mesh, auto const*) {
     constexpr int N = std::decay_t<decltype(mesh)>::corners;
-    auto query = [&](int k) { return FirstCellQuery<A, N>(pp.tree, mesh, r[k], s.windows, sp[k].t_enter, sp[k].t_exit); };
+    auto query = [&](int k) {
+      return FirstCellQuery<A, N>(pp.tree, mesh, r[k], s.windows, sp[k].t_enter, sp[k].t_exit);
+    };
     static_assert(K == 4, "the queries below are written out for 4 packets");
     FirstCellQuery<A, N> q[K] = {query(0), query(1), query(2), query(3)};
     FirstCellGroup<A, N, K> group{q, r};
@@ -133,37 +135,37 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
       uint32_t gvalid[K] = {};
       RayPacket<A> gr[K];
       DvrSpan<A> gs[K];
-      for (int k = 0; k < K; ++k) {
-        int const bx = gx + (k & 1) * block_w<A>, by = gy + (k >> 1) * block_h<A>;
+      for (int pk = 0; pk < K; ++pk) {
+        int const bx = gx + (pk & 1) * block_w<A>, by = gy + (pk >> 1) * block_h<A>;
         if (bx >= tile.x0 + tile.w || by >= tile.y0 + tile.h) {
-          gr[k] = gr[0], gs[k] = gs[0];  // no lanes (block 0 is always in the tile)
-          gs[k].inside = simd::no_lanes<A>();
+          gr[pk] = gr[0], gs[pk] = gs[0];  // no lanes (block 0 is always in the tile)
+          gs[pk].inside = simd::no_lanes<A>();
           continue;
         }
-        gr[k] = camera_packet<A>(cam, tile, bx, by, gpx[k], gpy[k], gvalid[k]);
-        gs[k] = dvr_span<A>(s, gr[k], simd::mask_from_bits<A>(gvalid[k]), vfloat<A>(0.f),
-                            host_depth<A>(out, gpx[k], gpy[k], gvalid[k]));
+        gr[pk] = camera_packet<A>(cam, tile, bx, by, gpx[pk], gpy[pk], gvalid[pk]);
+        gs[pk] = dvr_span<A>(s, gr[pk], simd::mask_from_bits<A>(gvalid[pk]), vfloat<A>(0.f),
+                             host_depth<A>(out, gpx[pk], gpy[pk], gvalid[pk]));
       }
       vint<A> first[K];
       if (grouped) dvr_first_cells<A, K>(s, gr, gs, first);
-    for (int k = 0; k < K; ++k) {
-      if (!gvalid[k]) continue;
-      int const(&px)[W] = gpx[k];
-      int const(&py)[W] = gpy[k];
-      uint32_t const valid = gvalid[k];
-      vfloat<A> cr, cg, cb, ca, depth;
-      dvr_packet<A>(s, p, o, gr[k], gs[k], grouped ? &first[k] : nullptr, scratch, cr, cg, cb, ca, out.depth_opacity,
-                    depth);
-      auto const ar = simd::to_array<A>(cr), ag = simd::to_array<A>(cg), ab = simd::to_array<A>(cb),
-                 aa = simd::to_array<A>(ca), ad = simd::to_array<A>(depth);
-      for (int l = 0; l < W; ++l) {
-        if (!((valid >> l) & 1u)) continue;
-        float const rest = (1.f - aa[l]) * p.background.a;
-        put_pixel(out, px[l], py[l], ar[l] + rest * p.background.r, ag[l] + rest * p.background.g,
-                  ab[l] + rest * p.background.b, aa[l] + rest);
-        if (out.depth_out) put_depth(out, px[l], py[l], ad[l]);
+      for (int pk = 0; pk < K; ++pk) {
+        if (!gvalid[pk]) continue;
+        int const(&px)[W] = gpx[pk];
+        int const(&py)[W] = gpy[pk];
+        uint32_t const valid = gvalid[pk];
+        vfloat<A> cr, cg, cb, ca, depth;
+        dvr_packet<A>(s, p, o, gr[pk], gs[pk], grouped ? &first[pk] : nullptr, scratch, cr, cg, cb, ca,
+                      out.depth_opacity, depth);
+        auto const ar = simd::to_array<A>(cr), ag = simd::to_array<A>(cg), ab = simd::to_array<A>(cb),
+                   aa = simd::to_array<A>(ca), ad = simd::to_array<A>(depth);
+        for (int l = 0; l < W; ++l) {
+          if (!((valid >> l) & 1u)) continue;
+          float const rest = (1.f - aa[l]) * p.background.a;
+          put_pixel(out, px[l], py[l], ar[l] + rest * p.background.r, ag[l] + rest * p.background.g,
+                    ab[l] + rest * p.background.b, aa[l] + rest);
+          if (out.depth_out) put_depth(out, px[l], py[l], ad[l]);
+        }
       }
-    }
     }
 }
 
@@ -181,9 +183,8 @@ void integrate_host_rays(PreparedScene const& s, DvrParams const& p, RenderOptio
     vmask<A> const lanes = simd::mask_from_bits<A>(cnt >= 32 ? ~0u : (1u << cnt) - 1u) && len2 > vfloat<A>(0.f) &&
                            len2 < vfloat<A>(std::numeric_limits<float>::infinity()) && r.tmin <= r.tmax;
     vfloat<A> cr, cg, cb, ca, depth;
-    dvr_packet<A>(s, p, o, r, dvr_span<A>(s, r, lanes, simd::max(r.tmin, vfloat<A>(0.f)), r.tmax), nullptr, scratch, cr,
-                  cg, cb, ca, depth_at,
-                  depth);
+    DvrSpan<A> const span = dvr_span<A>(s, r, lanes, simd::max(r.tmin, vfloat<A>(0.f)), r.tmax);
+    dvr_packet<A>(s, p, o, r, span, nullptr, scratch, cr, cg, cb, ca, depth_at, depth);
     auto const ar = simd::to_array<A>(cr), ag = simd::to_array<A>(cg), ab = simd::to_array<A>(cb),
                aa = simd::to_array<A>(ca), ad = simd::to_array<A>(depth);
     for (int l = 0; l < cnt; ++l) {
