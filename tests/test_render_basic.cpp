@@ -109,13 +109,20 @@ TEST_CASE("iso: four pixel blocks traced together find the hits each finds alone
   both.hexes.push_back({hm, &hb, nullptr, nullptr, nullptr});
   Scene const scenes[] = {Scene(tm, tb), Scene(hm, hb), both};
   char const* const names[] = {"tets", "hex family", "tets and hex family"};
-  for (int which = 0; which < 3; ++which) {
+  for (int run = 0; run < 4; ++run) {
+    int const which = run % 3;
+    bool const clipped = run == 3;  // each packet's span cut by a plane, with caps, before the first hits
     Scene const& scene = scenes[which];
     glm::vec3 lo, hi;
     scene.bounds(lo, hi);
     Camera const cam = fit_camera(lo, hi, 45, 37);  // blocks and groups cut by the tiles' and image's edges
     IsoParams iso;
     iso.surfaces = {{0.3f, {0.9f, 0.7f, 0.4f}, 0.5f}, {0.55f, {0.4f, 0.6f, 0.9f}, 1.f}};
+    if (clipped) {
+      iso.clip.planes = {{0.5f * (lo + hi), glm::vec3(0.55f, 0.45f, 1.0f)}};
+      iso.clip.caps = true;
+      iso.clip.cap_colors = transfer_function_preset("viridis", 0.f, 1.f);
+    }
     // The host's depth: a ramp across the image that ends some rays inside the mesh.
     std::vector<float> depth_in(size_t(cam.width) * size_t(cam.height));
     float const dist = glm::length(cam.eye - 0.5f * (lo + hi));
@@ -141,7 +148,7 @@ TEST_CASE("iso: four pixel blocks traced together find the hits each finds alone
     std::vector<float> grouped(depth_in.size()), alone(depth_in.size());
     Image const a = render_with(Traversal::packet, grouped);
     Image const b = render_with(Traversal::hybrid, alone);
-    INFO(names[which] << " on " << isa_name(test::isa()));
+    INFO(names[which] << (clipped ? ", clipped" : "") << " on " << isa_name(test::isa()));
     int hits = 0, same = 0;
     for (size_t i = 0; i < grouped.size(); ++i) {
       hits += std::isfinite(alone[i]);

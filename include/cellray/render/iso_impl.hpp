@@ -316,15 +316,18 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
 
   // 2x2 neighbouring pixel blocks find their first hits in one traversal
   // (nearest_hits): their rays are coherent, so nodes and leaves are
-  // visited, and cells read, once for four packets. Clip planes change
-  // each packet's interval first, so they go packet by packet.
+  // visited, and cells read, once for four packets. Each packet's clip
+  // span and caps come first; layers behind the first hits go packet by
+  // packet.
   constexpr int K = 4;
-  bool const grouped = o.traversal == Traversal::packet && !clipping;
+  bool const grouped = o.traversal == Traversal::packet;
   for (int gy = tile.y0; gy < tile.y0 + tile.h; gy += 2 * block_h<A>)
     for (int gx = tile.x0; gx < tile.x0 + tile.w; gx += 2 * block_w<A>) {
       int gpx[K][W], gpy[K][W];
-      uint32_t gvalid[K] = {};
+      uint32_t gvalid[K] = {}, glive[K] = {};
       RayPacket<A> gr[K];
+      // Per packet before its first hit: colour and depth of the clip's caps.
+      vfloat<A> gcr[K], gcg[K], gcb[K], galpha[K], gdepth[K];
       for (int pk = 0; pk < K; ++pk) {
         int const bx = gx + (pk & 1) * block_w<A>, by = gy + (pk >> 1) * block_h<A>;
         if (bx >= tile.x0 + tile.w || by >= tile.y0 + tile.h) {
@@ -335,25 +338,16 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
         gr[pk].tmin = zero;
         // The host's opaque geometry hides what lies behind it.
         gr[pk].tmax = host_depth<A>(out, gpx[pk], gpy[pk], gvalid[pk]);
-      }
-      SceneHit<A> first[K];
-      if (grouped) nearest_hits<A, K>(s, gr, gvalid, isos, p.roots, query_gradient, param_attributes, first);
-      for (int pk = 0; pk < K; ++pk) {
-        if (!gvalid[pk]) continue;
-        int const(&px)[W] = gpx[pk];
-        int const(&py)[W] = gpy[pk];
-        uint32_t const valid = gvalid[pk];
-        RayPacket<A> r = gr[pk];
-        Vec3<A> const dir = ray_batch(r).dir();
-        vfloat<A> color_r = zero, color_g = zero, color_b = zero, alpha = zero;
-        vfloat<A> depth(std::numeric_limits<float>::infinity());
-        vfloat<A> const depth_at(out.depth_opacity);
-        uint32_t live = valid;
+        gcr[pk] = gcg[pk] = gcb[pk] = galpha[pk] = zero;
+        gdepth[pk] = vfloat<A>(std::numeric_limits<float>::infinity());
+        glive[pk] = gvalid[pk];
         if (clipping) {
+          RayPacket<A>& r = gr[pk];
+          Vec3<A> const dir = ray_batch(r).dir();
           ClipSpan<A> const cs = clip_span<A>(s.clip, r, zero, r.tmax);
           r.tmin = cs.t0, r.tmax = cs.t1;
-          live &= simd::movemask(cs.t0 <= cs.t1);
-          uint32_t const entering = live & simd::movemask(simd::to_float_mask(cs.entry >= vint<A>(0)));
+          glive[pk] &= simd::movemask(cs.t0 <= cs.t1);
+          uint32_t const entering = glive[pk] & simd::movemask(simd::to_float_mask(cs.entry >= vint<A>(0)));
           if (s.clip.caps && entering) {
             // A cap: the cut face where the ray enters the region inside the
             // mesh, opaque, in front of everything the region holds.
@@ -379,12 +373,26 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
               cr_[l] = c.r, cg_[l] = c.g, cb_[l] = c.b, ca_[l] = 1.f;
               capped |= 1u << l;
             }
-            color_r = simd::load<A>(cr_), color_g = simd::load<A>(cg_), color_b = simd::load<A>(cb_);
-            alpha = simd::load<A>(ca_);
-            depth = simd::select(simd::mask_from_bits<A>(capped), cs.t0, depth);
-            live &= ~capped;
+            gcr[pk] = simd::load<A>(cr_), gcg[pk] = simd::load<A>(cg_), gcb[pk] = simd::load<A>(cb_);
+            galpha[pk] = simd::load<A>(ca_);
+            gdepth[pk] = simd::select(simd::mask_from_bits<A>(capped), cs.t0, gdepth[pk]);
+            glive[pk] &= ~capped;
           }
         }
+      }
+      SceneHit<A> first[K];
+      if (grouped) nearest_hits<A, K>(s, gr, glive, isos, p.roots, query_gradient, param_attributes, first);
+      for (int pk = 0; pk < K; ++pk) {
+        if (!gvalid[pk]) continue;
+        int const(&px)[W] = gpx[pk];
+        int const(&py)[W] = gpy[pk];
+        uint32_t const valid = gvalid[pk];
+        RayPacket<A> r = gr[pk];
+        Vec3<A> const dir = ray_batch(r).dir();
+        vfloat<A> color_r = gcr[pk], color_g = gcg[pk], color_b = gcb[pk], alpha = galpha[pk];
+        vfloat<A> depth = gdepth[pk];
+        vfloat<A> const depth_at(out.depth_opacity);
+        uint32_t live = glive[pk];
         // Front-to-back layers: continue behind semi-transparent surfaces.
         for (int layer = 0; layer < 16 && live; ++layer) {
           SceneHit<A> const h = layer == 0 && grouped
@@ -526,7 +534,8 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
             glm::vec3 const o = pos[l] + eps * nrm[l];
             return Ray{o, eps, d, clipping ? std::max(eps, clip_exit(s.clip, o, d, ao_radius)) : ao_radius};
           };
-          bool const regroup = o.secondary_query == SecondaryQuery::sorted || o.secondary_query == SecondaryQuery::grouped ||
+          bool const regroup = o.secondary_query == SecondaryQuery::sorted ||
+                               o.secondary_query == SecondaryQuery::grouped ||
                                (o.secondary_query == SecondaryQuery::march && !march_ao);
           if (hit_bits && p.ao_samples > 0 && march_ao) {
             // Each hit lane's AO rays march from its hit cell; what a march

@@ -4,7 +4,10 @@
 //   SPMD:   each lane pops, tests and descends on its own stack.
 // Hybrid is packet traversal that hands a subtree reached by fewer than a
 // threshold of lanes to SPMD traversal of those lanes, so the vector unit
-// stays busy with whatever other work the lanes have.
+// stays busy with whatever other work the lanes have. Not in the paper:
+// traverse_packets, packet traversal of K packets at once (neighbouring
+// pixel blocks' camera rays), whose queries share each node's and leaf's
+// scalar work (see there).
 //
 // A query supplies, for packet traversal:
 //   bool node_relevant(float vmin, float vmax)      uniform value-range filter
