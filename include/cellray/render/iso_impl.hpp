@@ -103,9 +103,8 @@ inline void nearest_hits(PreparedScene const& s, RayPacket<A> const (&r)[K], uin
         q.want_param = param && CellOps<A, N>::keeps_param;
         return q;
       };
-      static_assert(K == 4, "the queries below are written out for 4 packets");
-      FirstHitQuery<A, N> q[K] = {query(0), query(1), query(2), query(3)};
-      FirstHitGroup<A, N, K> group{q, r};
+      auto q = make_array<K>(query);
+      FirstHitGroup<A, N, K> group{q.data(), r};
       traverse_packets<A, K>(part.tree, r, lanes, group);
       for (int k = 0; k < K; ++k) keep_nearer<A>(q[k], int(pi), best[k]);
     });
@@ -319,17 +318,18 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
   // visited, and cells read, once for four packets. Each packet's clip
   // span and caps come first; layers behind the first hits go packet by
   // packet.
-  constexpr int K = 4;
+  // (4x2 blocks, in 128-bit lane sets, were 7% slower on component8.)
+  constexpr int GX = 2, GY = 2, K = GX * GY;
   bool const grouped = o.traversal == Traversal::packet;
-  for (int gy = tile.y0; gy < tile.y0 + tile.h; gy += 2 * block_h<A>)
-    for (int gx = tile.x0; gx < tile.x0 + tile.w; gx += 2 * block_w<A>) {
+  for (int gy = tile.y0; gy < tile.y0 + tile.h; gy += GY * block_h<A>)
+    for (int gx = tile.x0; gx < tile.x0 + tile.w; gx += GX * block_w<A>) {
       int gpx[K][W], gpy[K][W];
       uint32_t gvalid[K] = {}, glive[K] = {};
       RayPacket<A> gr[K];
       // Per packet before its first hit: colour and depth of the clip's caps.
       vfloat<A> gcr[K], gcg[K], gcb[K], galpha[K], gdepth[K];
       for (int pk = 0; pk < K; ++pk) {
-        int const bx = gx + (pk & 1) * block_w<A>, by = gy + (pk >> 1) * block_h<A>;
+        int const bx = gx + (pk % GX) * block_w<A>, by = gy + (pk / GX) * block_h<A>;
         if (bx >= tile.x0 + tile.w || by >= tile.y0 + tile.h) {
           gr[pk] = gr[0];  // no lanes (block 0 is always in the tile)
           continue;

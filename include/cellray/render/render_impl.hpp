@@ -112,9 +112,8 @@ void dvr_first_cells(PreparedScene const& s, RayPacket<A> const (&r)[K], DvrSpan
     auto query = [&](int k) {
       return FirstCellQuery<A, N>(pp.tree, mesh, r[k], s.windows, sp[k].t_enter, sp[k].t_exit);
     };
-    static_assert(K == 4, "the queries below are written out for 4 packets");
-    FirstCellQuery<A, N> q[K] = {query(0), query(1), query(2), query(3)};
-    FirstCellGroup<A, N, K> group{q, r};
+    auto q = make_array<K>(query);
+    FirstCellGroup<A, N, K> group{q.data(), r};
     traverse_packets<A, K>(pp.tree, r, lanes, group);
     for (int k = 0; k < K; ++k) cells[k] = q[k].cell;
   });
@@ -127,16 +126,16 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
   DvrScratch<A> scratch(s);
   // 2x2 neighbouring pixel blocks locate their first cells in one
   // traversal (dvr_first_cells), then march one by one.
-  constexpr int K = 4;
+  constexpr int GX = 2, GY = 2, K = GX * GY;
   bool const grouped = dvr_groups_first_cells(s, p, o);
-  for (int gy = tile.y0; gy < tile.y0 + tile.h; gy += 2 * block_h<A>)
-    for (int gx = tile.x0; gx < tile.x0 + tile.w; gx += 2 * block_w<A>) {
+  for (int gy = tile.y0; gy < tile.y0 + tile.h; gy += GY * block_h<A>)
+    for (int gx = tile.x0; gx < tile.x0 + tile.w; gx += GX * block_w<A>) {
       int gpx[K][W], gpy[K][W];
       uint32_t gvalid[K] = {};
       RayPacket<A> gr[K];
       DvrSpan<A> gs[K];
       for (int pk = 0; pk < K; ++pk) {
-        int const bx = gx + (pk & 1) * block_w<A>, by = gy + (pk >> 1) * block_h<A>;
+        int const bx = gx + (pk % GX) * block_w<A>, by = gy + (pk / GX) * block_h<A>;
         if (bx >= tile.x0 + tile.w || by >= tile.y0 + tile.h) {
           gr[pk] = gr[0], gs[pk] = gs[0];  // no lanes (block 0 is always in the tile)
           gs[pk].inside = simd::no_lanes<A>();

@@ -20,10 +20,12 @@
 // ISA units only.
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <type_traits>
+#include <utility>
 
 #include "packet.hpp"
 #include "tree_view.hpp"
@@ -62,6 +64,15 @@ void traverse_spmd(TreeView const& tree, RayPacket<A> const& r, vmask<A> active,
 /// of 32-bit masks were stored lane by lane and reloaded as one vector: a
 /// store-forwarding stall on every stack pop).
 template <class A, int K> using LaneSet = std::conditional_t<K * width<A> <= 32, uint32_t, uint64_t>;
+
+/// {f(0), ..., f(K - 1)}: an array of K values that have no default
+/// constructor (queries holding references).
+template <int K, class F, size_t... I> inline auto make_array(F const& f, std::index_sequence<I...>) {
+  return std::array<decltype(f(0)), K>{{f(int(I))...}};
+}
+template <int K, class F> inline auto make_array(F const& f) {
+  return make_array<K>(f, std::make_index_sequence<size_t(K)>());
+}
 
 /// Lanes of packet k in a lane set.
 template <class A, int K> inline uint32_t packet_lanes(LaneSet<A, K> s, int k) {
