@@ -86,12 +86,11 @@ template <class A, int K>
 inline void nearest_hits(PreparedScene const& s, RayPacket<A> const (&r)[K], uint32_t const (&active)[K],
                          IsoSet const& isos, CellIsoOptions const& roots, bool gradient, bool param,
                          SceneHit<A> (&best)[K]) {
-  constexpr int W = width<A>;
-  LaneSet<A, K> lanes = 0;
+  vmask<A> lanes[K];
   for (int k = 0; k < K; ++k) {
     best[k].t = r[k].tmax;
     best[k].iso = best[k].item = best[k].part = vint<A>(-1);
-    lanes |= LaneSet<A, K>(active[k]) << (k * W);
+    lanes[k] = simd::mask_from_bits<A>(active[k]);
   }
   for (size_t pi = 0; pi < s.parts.size(); ++pi) {
     PreparedPart const& part = s.parts[pi];

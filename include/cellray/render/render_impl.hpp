@@ -103,9 +103,8 @@ inline bool dvr_groups_first_cells(PreparedScene const& s, DvrParams const& p, R
 template <class A, int K>
 void dvr_first_cells(PreparedScene const& s, RayPacket<A> const (&r)[K], DvrSpan<A> const (&sp)[K],
                      vint<A> (&cells)[K]) {
-  constexpr int W = width<A>;
-  LaneSet<A, K> lanes = 0;
-  for (int k = 0; k < K; ++k) lanes |= LaneSet<A, K>(simd::movemask(sp[k].inside)) << (k * W);
+  vmask<A> lanes[K];
+  for (int k = 0; k < K; ++k) lanes[k] = sp[k].inside;
   PreparedPart const& pp = s.parts[0];
   pp.visit([&](auto const& mesh, auto const*) {
     constexpr int N = std::decay_t<decltype(mesh)>::corners;

@@ -153,7 +153,7 @@ template <class A, int N, int K> struct FirstHitGroup {
   vfloat<A> t_lo(int k) const { return q[k].t_lo(); }
   vfloat<A> t_hi(int k) const { return q[k].t_hi(); }
 
-  void leaf(uint64_t first, uint32_t count, LaneSet<A, K> lanes) {
+  void leaf(uint64_t first, uint32_t count, vmask<A> const (&lanes)[K], uint32_t packets) {
     CellMesh<N> const& mesh = q[0].mesh;
     TreeView const& tree = q[0].tree;
     if (!mesh.values()) return;  // NaN everywhere: no cell can hold a crossing
@@ -166,10 +166,9 @@ template <class A, int N, int K> struct FirstHitGroup {
       corner_box(xyz, k, lo, hi);
       uint32_t in = 0;  // packets with a lane in the cell's box
       for (int p = 0; p < K; ++p) {
-        uint32_t const m = packet_lanes<A, K>(lanes, p);
+        if (!((packets >> p) & 1u)) continue;
         vfloat<A> tn;
-        if (m && simd::any(simd::mask_from_bits<A>(m) && box_hit(r[p], lo, hi, r[p].tmin, q[p].hit.t, tn)))
-          in |= 1u << p;
+        if (simd::any(lanes[p] && box_hit(r[p], lo, hi, r[p].tmin, q[p].hit.t, tn))) in |= 1u << p;
       }
       if (!in) continue;
       order_corners(mesh.vertex_count(), k);
@@ -179,7 +178,7 @@ template <class A, int N, int K> struct FirstHitGroup {
           FoldedTet<A> const f = CellOps<A, N>::broadcast_folded_tet(xyz, k);
           for (uint32_t b = in; b; b &= b - 1) {
             int const p = __builtin_ctz(b);
-            q[p].folded_tet_hits(f, simd::mask_from_bits<A>(packet_lanes<A, K>(lanes, p)), slot);
+            q[p].folded_tet_hits(f, lanes[p], slot);
           }
           continue;
         }
@@ -187,7 +186,7 @@ template <class A, int N, int K> struct FirstHitGroup {
       CellCorners<A, N> const c = broadcast<A, N>(mesh, k);
       for (uint32_t b = in; b; b &= b - 1) {
         int const p = __builtin_ctz(b);
-        q[p].cell_hits(c, simd::mask_from_bits<A>(packet_lanes<A, K>(lanes, p)), slot);
+        q[p].cell_hits(c, lanes[p], slot);
       }
     }
   }

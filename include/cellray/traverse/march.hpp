@@ -132,7 +132,7 @@ template <class A, int N, int K> struct FirstCellGroup {
   vfloat<A> t_lo(int k) const { return q[k].t_lo(); }
   vfloat<A> t_hi(int k) const { return q[k].t_hi(); }
 
-  void leaf(uint64_t first, uint32_t count, LaneSet<A, K> lanes) {
+  void leaf(uint64_t first, uint32_t count, vmask<A> const (&lanes)[K], uint32_t packets) {
     CellMesh<N> const& mesh = *q[0].mesh_;
     TreeView const& tree = *q[0].tree_;
     ValueWindows const& windows = q[0].windows;
@@ -147,10 +147,9 @@ template <class A, int N, int K> struct FirstCellGroup {
       vmask<A> in[K];
       uint32_t any = 0;  // packets with a lane in the cell's box
       for (int p = 0; p < K; ++p) {
-        uint32_t const m = packet_lanes<A, K>(lanes, p);
-        if (!m) continue;
+        if (!((packets >> p) & 1u)) continue;
         vfloat<A> tn;
-        in[p] = simd::mask_from_bits<A>(m) && box_hit(r[p], lo, hi, q[p].lo, q[p].t_hi(), tn);
+        in[p] = lanes[p] && box_hit(r[p], lo, hi, q[p].lo, q[p].t_hi(), tn);
         if (simd::any(in[p])) any |= 1u << p;
       }
       if (!any) continue;

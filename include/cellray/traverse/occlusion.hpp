@@ -120,6 +120,18 @@ inline vmask<A> occluded_in(TreeView const& tree, CellMesh<N> const& mesh, RayPa
   return q.occluded && active;
 }
 
+/// Lane sets of K packets of W rays in one word: bit k * W + l is lane l of
+/// packet k. One integer to copy, mask and test per stack entry (K arrays
+/// of 32-bit masks were stored lane by lane and reloaded as one vector: a
+/// store-forwarding stall on every stack pop).
+template <class A, int K> using LaneSet = std::conditional_t<K * width<A> <= 32, uint32_t, uint64_t>;
+
+/// Lanes of packet k in a lane set.
+template <class A, int K> inline uint32_t packet_lanes(LaneSet<A, K> s, int k) {
+  constexpr int W = width<A>;
+  return uint32_t(s >> (k * W)) & uint32_t(W >= 32 ? ~0u : (1u << W) - 1u);
+}
+
 /// (cell, ray) pairs of tets collected W at a time and clipped together,
 /// one cell and one ray per lane: a cell's box is usually met by 1 to 3 of
 /// a group's incoherent rays (2.2 of 8 lanes measured on component8's AO

@@ -59,12 +59,6 @@ inline vmask<A> windows_overlap(ValueWindows const& w, vfloat<A> const& vmin, vf
 template <class A, class Query>
 void traverse_spmd(TreeView const& tree, RayPacket<A> const& r, vmask<A> active, Query& q, uint32_t root = 0);
 
-/// Lane sets of K packets of W rays in one word: bit k * W + l is lane l of
-/// packet k. One integer to copy, mask and test per stack entry (K arrays
-/// of 32-bit masks were stored lane by lane and reloaded as one vector: a
-/// store-forwarding stall on every stack pop).
-template <class A, int K> using LaneSet = std::conditional_t<K * width<A> <= 32, uint32_t, uint64_t>;
-
 /// {f(0), ..., f(K - 1)}: an array of K values that have no default
 /// constructor (queries holding references).
 template <int K, class F, size_t... I> inline auto make_array(F const& f, std::index_sequence<I...>) {
@@ -73,13 +67,6 @@ template <int K, class F, size_t... I> inline auto make_array(F const& f, std::i
 template <int K, class F> inline auto make_array(F const& f) {
   return make_array<K>(f, std::make_index_sequence<size_t(K)>());
 }
-
-/// Lanes of packet k in a lane set.
-template <class A, int K> inline uint32_t packet_lanes(LaneSet<A, K> s, int k) {
-  constexpr int W = width<A>;
-  return uint32_t(s >> (k * W)) & uint32_t(W >= 32 ? ~0u : (1u << W) - 1u);
-}
-
 
 template <class A, class Query>
 void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> active, Query& q, uint32_t root = 0,
@@ -162,86 +149,97 @@ void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> activ
 /// scalar work of a node and of a leaf (its cells' corner reads, value
 /// ranges and boxes) is paid once where coherent packets would each pay
 /// it. The nearer child goes first for the majority of the lanes that enter
-/// both (as traverse_packet, over all K packets). A group query supplies
+/// both (as traverse_packet, over all K packets). Lanes stay masks per
+/// packet (`packets`: bit k, packet k has some). A group query supplies
 ///   bool node_relevant(float vmin, float vmax)
 ///   vfloat<A> t_lo(int k), t_hi(int k)       packet k's interval
-///   void leaf(uint64_t first_slot, uint32_t count, LaneSet<A, K> lanes)
+///   void leaf(uint64_t first_slot, uint32_t count, vmask<A> const (&lanes)[K], uint32_t packets)
 template <class A, int K, class Group>
-void traverse_packets(TreeView const& tree, RayPacket<A> const (&r)[K], LaneSet<A, K> active, Group& q) {
-  constexpr int W = width<A>;
-  using Lanes = LaneSet<A, K>;
-  if (tree.empty() || !active) return;
-  // Per packet, where its lanes entered the node: a pop drops those whose
-  // interval has since shrunk past it (see traverse_packet).
+void traverse_packets(TreeView const& tree, RayPacket<A> const (&r)[K], vmask<A> const (&active)[K], Group& q) {
+  if (tree.empty()) return;
+  // Per packet, its lanes that entered the node and where: a pop drops
+  // those whose interval has since shrunk past it (see traverse_packet).
   struct Entry {
     vfloat<A> t_enter[K];
+    vmask<A> lanes[K];
     uint32_t node;
-    Lanes lanes;
+    uint32_t packets;
   };
-  auto const enter = [&](Node const& node, Lanes from, vfloat<A> (&tn)[K]) {
-    Lanes in = 0;
+  // The lanes of `from` whose rays enter the node's box, per packet.
+  auto const enter = [&](Node const& node, vmask<A> const (&from)[K], uint32_t packets, vmask<A> (&in)[K],
+                         vfloat<A> (&tn)[K]) {
+    uint32_t entered = 0;
     for (int k = 0; k < K; ++k) {
-      uint32_t const lanes = packet_lanes<A, K>(from, k);
-      if (!lanes) continue;
-      in |= Lanes(simd::movemask(simd::mask_from_bits<A>(lanes) &&
-                                 box_hit(r[k], node.lo, node.hi, q.t_lo(k), q.t_hi(k), tn[k])))
-            << (k * W);
+      if (!((packets >> k) & 1u)) continue;
+      in[k] = from[k] && box_hit(r[k], node.lo, node.hi, q.t_lo(k), q.t_hi(k), tn[k]);
+      if (simd::any(in[k])) entered |= 1u << k;
     }
-    return in;
+    return entered;
   };
   Entry stack[traversal_stack_size];
   int sp = 0;
   if (!q.node_relevant(tree.ranges[0], tree.ranges[1])) return;
   {
+    uint32_t packets = 0;
+    for (int k = 0; k < K; ++k) packets |= uint32_t(simd::any(active[k])) << k;
     Entry& root = stack[0];
     root.node = 0;
-    root.lanes = enter(tree.nodes[0], active, root.t_enter);
-    if (!root.lanes) return;
+    root.packets = enter(tree.nodes[0], active, packets, root.lanes, root.t_enter);
+    if (!root.packets) return;
     sp = 1;
   }
   vfloat<A> const slack(1.f + 4.f * std::numeric_limits<float>::epsilon());  // as box_hit's exit
+  vmask<A> m[K], ml[K], mr[K];
+  vfloat<A> tl[K], tr[K];
+  for (int k = 0; k < K; ++k) m[k] = ml[k] = mr[k] = simd::no_lanes<A>(), tl[k] = tr[k] = vfloat<A>(0.f);
   while (sp > 0) {
     Entry const& e = stack[--sp];
     uint32_t ni = e.node;
-    Lanes m = 0;
+    uint32_t packets = 0;
     for (int k = 0; k < K; ++k) {
-      uint32_t const lanes = packet_lanes<A, K>(e.lanes, k);
-      if (lanes)
-        m |= Lanes(simd::movemask(simd::mask_from_bits<A>(lanes) && e.t_enter[k] <= q.t_hi(k) * slack)) << (k * W);
+      if (!((e.packets >> k) & 1u)) continue;
+      m[k] = e.lanes[k] && e.t_enter[k] <= q.t_hi(k) * slack;
+      if (simd::any(m[k])) packets |= 1u << k;
     }
-    if (!m) continue;
+    if (!packets) continue;
     while (true) {
       Node const& node = tree.nodes[ni];
       if (node.is_leaf()) {
-        q.leaf(node.first_item(), node.item_count(), m);
+        q.leaf(node.first_item(), node.item_count(), m, packets);
         break;
       }
       uint32_t const li = node.left(), ri = node.right();
-      vfloat<A> tl[K], tr[K];
-      for (int k = 0; k < K; ++k) tl[k] = tr[k] = vfloat<A>(0.f);  // read only where entered
-      Lanes const ml = q.node_relevant(tree.ranges[2 * li], tree.ranges[2 * li + 1]) ? enter(tree.nodes[li], m, tl) : 0;
-      Lanes const mr = q.node_relevant(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]) ? enter(tree.nodes[ri], m, tr) : 0;
-      if (ml && mr) {
+      uint32_t const pl =
+          q.node_relevant(tree.ranges[2 * li], tree.ranges[2 * li + 1]) ? enter(tree.nodes[li], m, packets, ml, tl) : 0;
+      uint32_t const pr =
+          q.node_relevant(tree.ranges[2 * ri], tree.ranges[2 * ri + 1]) ? enter(tree.nodes[ri], m, packets, mr, tr) : 0;
+      if (pl && pr) {
         int both = 0, left_nearer = 0;
         for (int k = 0; k < K; ++k) {
-          uint32_t const b = packet_lanes<A, K>(ml & mr, k);
-          if (!b) continue;
-          both += __builtin_popcount(b);
-          left_nearer += popcount<A>(simd::mask_from_bits<A>(b) && tl[k] <= tr[k]);
+          if (!((pl & pr) >> k & 1u)) continue;
+          vmask<A> const b = ml[k] && mr[k];
+          both += popcount<A>(b);
+          left_nearer += popcount<A>(b && tl[k] <= tr[k]);
         }
         bool const left_first = left_nearer * 2 >= both;
         // The builders cap the depth at MinMaxBvh::max_depth, so the stack holds.
         Entry& far = stack[sp++];
         far.node = left_first ? ri : li;
-        far.lanes = left_first ? mr : ml;
-        for (int k = 0; k < K; ++k)
-          if (packet_lanes<A, K>(far.lanes, k)) far.t_enter[k] = left_first ? tr[k] : tl[k];
+        far.packets = left_first ? pr : pl;
+        for (int k = 0; k < K; ++k) {
+          if (!((far.packets >> k) & 1u)) continue;
+          far.lanes[k] = left_first ? mr[k] : ml[k];
+          far.t_enter[k] = left_first ? tr[k] : tl[k];
+        }
         ni = left_first ? li : ri;
-        m = left_first ? ml : mr;
-      } else if (ml) {
-        ni = li, m = ml;
-      } else if (mr) {
-        ni = ri, m = mr;
+        packets = left_first ? pl : pr;
+        for (int k = 0; k < K; ++k) m[k] = left_first ? ml[k] : mr[k];
+      } else if (pl) {
+        ni = li, packets = pl;
+        for (int k = 0; k < K; ++k) m[k] = ml[k];
+      } else if (pr) {
+        ni = ri, packets = pr;
+        for (int k = 0; k < K; ++k) m[k] = mr[k];
       } else {
         break;
       }
