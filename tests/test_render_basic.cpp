@@ -50,6 +50,31 @@ bool has_structure(Image const& img) {
   return distinct > int(px.size() / 4 / 20);  // at least 5% of pixels differ from the corner
 }
 
+/// The host's depth for the grouped-traversal tests: infinite on the
+/// image's left third, elsewhere a ramp down the image that ends some rays
+/// inside the mesh.
+std::vector<float> depth_ramp(Camera const& cam, glm::vec3 lo, glm::vec3 hi) {
+  std::vector<float> d(size_t(cam.width) * size_t(cam.height));
+  float const dist = glm::length(cam.eye - 0.5f * (lo + hi));
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x)
+      d[size_t(y) * size_t(cam.width) + size_t(x)] = x < cam.width / 3
+                                                         ? std::numeric_limits<float>::infinity()
+                                                         : dist * (0.8f + 0.4f * float(y) / float(cam.height));
+  return d;
+}
+
+/// Packet traversal (2x2 pixel blocks together), or hybrid with a threshold
+/// of 1 (packet traversal, one block at a time); tiles of 8 cut the groups.
+RenderOptions grouped_or_alone(Traversal t) {
+  RenderOptions o;
+  o.isa = test::isa();
+  o.traversal = t;
+  o.hybrid_threshold = 1;
+  o.tile_size = 8;
+  return o;
+}
+
 IsoParams three_surfaces() {
   IsoParams p;
   p.surfaces = {{0.25f, {0.3f, 0.5f, 0.9f}, 0.4f}, {0.45f, {0.9f, 0.7f, 0.2f}, 0.6f}, {0.6f, {0.9f, 0.2f, 0.2f}, 1.f}};
@@ -123,20 +148,9 @@ TEST_CASE("iso: four pixel blocks traced together find the hits each finds alone
       iso.clip.caps = true;
       iso.clip.cap_colors = transfer_function_preset("viridis", 0.f, 1.f);
     }
-    // The host's depth: a ramp across the image that ends some rays inside the mesh.
-    std::vector<float> depth_in(size_t(cam.width) * size_t(cam.height));
-    float const dist = glm::length(cam.eye - 0.5f * (lo + hi));
-    for (int y = 0; y < cam.height; ++y)
-      for (int x = 0; x < cam.width; ++x)
-        depth_in[size_t(y) * size_t(cam.width) + size_t(x)] = x < cam.width / 3
-                                                                  ? std::numeric_limits<float>::infinity()
-                                                                  : dist * (0.8f + 0.4f * float(y) / float(cam.height));
+    std::vector<float> const depth_in = depth_ramp(cam, lo, hi);
     auto render_with = [&](Traversal t, std::vector<float>& depth) {
-      RenderOptions o;
-      o.isa = test::isa();
-      o.traversal = t;
-      o.hybrid_threshold = 1;
-      o.tile_size = 8;
+      RenderOptions const o = grouped_or_alone(t);
       Image img(cam.width, cam.height);
       FrameBuffer fb = FrameBuffer::of(img);
       fb.depth_in = depth_in.data();
@@ -183,19 +197,9 @@ TEST_CASE("DVR: four pixel blocks locating their first cells together march as e
     DvrParams dvr;
     dvr.tf = transfer_function_preset("viridis", 0.f, 0.75f);
     dvr.tf.unit_distance = 0.2f;
-    std::vector<float> depth_in(size_t(cam.width) * size_t(cam.height));
-    float const dist = glm::length(cam.eye - 0.5f * (lo + hi));
-    for (int y = 0; y < cam.height; ++y)
-      for (int x = 0; x < cam.width; ++x)
-        depth_in[size_t(y) * size_t(cam.width) + size_t(x)] = x < cam.width / 3
-                                                                  ? std::numeric_limits<float>::infinity()
-                                                                  : dist * (0.8f + 0.4f * float(y) / float(cam.height));
+    std::vector<float> const depth_in = depth_ramp(cam, lo, hi);
     auto render_with = [&](Traversal t) {
-      RenderOptions o;
-      o.isa = test::isa();
-      o.traversal = t;
-      o.hybrid_threshold = 1;
-      o.tile_size = 8;
+      RenderOptions const o = grouped_or_alone(t);
       Image img(cam.width, cam.height);
       FrameBuffer fb = FrameBuffer::of(img);
       fb.depth_in = depth_in.data();
