@@ -163,4 +163,49 @@ void MarchOcclusionProbe<Arch>::run(HexMesh const& mesh, MinMaxBvh const& bvh, H
 
 CELLRAY_INSTANTIATE_ENTRY(MarchOcclusionProbe)
 
+namespace {
+
+template <class Arch, int N>
+void first_cells(CellMesh<N> const& mesh, MinMaxBvh const& bvh, ValueWindows const& windows, Ray const* rays, int n,
+                 FirstCellsOut* grouped, FirstCellsOut* alone) {
+  constexpr int W = width<Arch>, K = 4;
+  TreeView const tree(bvh);
+  auto keep = [](FirstCellQuery<Arch, N> const& q, FirstCellsOut* out) {
+    auto const cells = simd::to_array<Arch>(q.cell);
+    auto const t = simd::to_array<Arch>(q.best_t);
+    for (int l = 0; l < W; ++l) out[l] = FirstCellsOut{cells[size_t(l)], t[size_t(l)]};
+  };
+  for (int first = 0; first + K * W <= n; first += K * W) {
+    RayPacket<Arch> r[K];
+    vmask<Arch> lanes[K];
+    for (int k = 0; k < K; ++k) r[k] = load_rays<Arch>(rays + first + k * W, W), lanes[k] = simd::all_lanes<Arch>();
+    auto query = [&](int k) { return FirstCellQuery<Arch, N>(tree, mesh, r[k], windows, r[k].tmin, r[k].tmax); };
+    auto q = make_array<K>(query);
+    FirstCellGroup<Arch, N, K> group(q.data(), r, lanes);
+    traverse_packets<Arch, K>(tree, r, lanes, group);
+    for (int k = 0; k < K; ++k) {
+      keep(q[size_t(k)], grouped + first + k * W);
+      FirstCellQuery<Arch, N> one(tree, mesh, r[k], windows, r[k].tmin, r[k].tmax);
+      traverse_packet<Arch>(tree, r[k], lanes[k], one);
+      keep(one, alone + first + k * W);
+    }
+  }
+}
+
+}  // namespace
+
+template <class Arch>
+void FirstCellsProbe<Arch>::run(TetMesh const& mesh, MinMaxBvh const& bvh, ValueWindows const& windows,
+                                Ray const* rays, int n, FirstCellsOut* grouped, FirstCellsOut* alone) {
+  first_cells<Arch>(mesh, bvh, windows, rays, n, grouped, alone);
+}
+
+template <class Arch>
+void FirstCellsProbe<Arch>::run(HexMesh const& mesh, MinMaxBvh const& bvh, ValueWindows const& windows,
+                                Ray const* rays, int n, FirstCellsOut* grouped, FirstCellsOut* alone) {
+  first_cells<Arch>(mesh, bvh, windows, rays, n, grouped, alone);
+}
+
+CELLRAY_INSTANTIATE_ENTRY(FirstCellsProbe)
+
 }  // namespace cellray::test

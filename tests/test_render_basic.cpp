@@ -9,6 +9,7 @@
 #include <cellray/bvh/refit.hpp>
 #include <cellray/mesh/generate.hpp>
 #include <cellray/mesh/neighbours.hpp>
+#include <cellray/mesh/vtk_cells.hpp>
 #include <cellray/render/render.hpp>
 
 #include "support/test_isa.hpp"
@@ -129,14 +130,26 @@ TEST_CASE("iso: four pixel blocks traced together find the hits each finds alone
   auto family = generate_hex_family(3000, 2);  // hexahedra, wedges, pyramids
   TetMesh const tm = tets.mesh();
   HexMesh const hm = family.mesh();
-  MinMaxBvh const tb = build_minmax_bvh(tm), hb = build_minmax_bvh(hm);
+  // The tets as collapsed hexahedra (fold_tets_into_hexes' 0 1 2 2 3 3 3 3),
+  // which packet leaves clip with the tet kernels.
+  GeneratedMesh<8> folded{tets.xyz, {}, tets.field, tets.field_t1, tets.lattice};
+  for (size_t c = 0; c < tets.cells.size(); c += 4)
+    for (int k : tet_as_hex) folded.cells.push_back(tets.cells[c + size_t(k)]);
+  HexMesh const fm = folded.mesh();
+  // A regular grid: every face a parallelogram, which grouped packets clip
+  // from one setup per cell (hex_window_setup).
+  auto grid = generate_hexes(2000, 1, 0.f);
+  HexMesh const gm = grid.mesh();
+  MinMaxBvh const tb = build_minmax_bvh(tm), hb = build_minmax_bvh(hm), fb = build_minmax_bvh(fm),
+                  gb = build_minmax_bvh(gm);
   Scene both(tm, tb);
   both.hexes.push_back({hm, &hb, nullptr, nullptr, nullptr});
-  Scene const scenes[] = {Scene(tm, tb), Scene(hm, hb), both};
-  char const* const names[] = {"tets", "hex family", "tets and hex family"};
-  for (int run = 0; run < 4; ++run) {
-    int const which = run % 3;
-    bool const clipped = run == 3;  // each packet's span cut by a plane, with caps, before the first hits
+  Scene const scenes[] = {Scene(tm, tb), Scene(hm, hb), both, Scene(fm, fb), Scene(gm, gb)};
+  char const* const names[] = {"tets", "hex family", "tets and hex family", "tets folded into hexahedra",
+                               "regular hexahedra"};
+  for (int run = 0; run < 6; ++run) {
+    int const which = run % 5;
+    bool const clipped = run == 5;  // each packet's span cut by a plane, with caps, before the first hits
     Scene const& scene = scenes[which];
     glm::vec3 lo, hi;
     scene.bounds(lo, hi);

@@ -62,4 +62,21 @@ template <class Arch> struct MarchOcclusionProbe {
 };
 CELLRAY_EXTERN_ENTRY(MarchOcclusionProbe)
 
+/// The first visible cell of each ray past its tmin (FirstCellQuery), for
+/// consecutive groups of four packets of W rays: `grouped` from one
+/// traversal of each group (FirstCellGroup, as the DVR renderer's first
+/// locates), `alone` from one traversal per packet. Per ray: the cell (-1
+/// none) and its t_in (+inf none). `n` is a multiple of 4 W.
+struct FirstCellsOut {
+  int32_t cell = -1;
+  float t_in = 0.f;
+};
+template <class Arch> struct FirstCellsProbe {
+  static void run(TetMesh const& mesh, MinMaxBvh const& bvh, ValueWindows const& windows, Ray const* rays, int n,
+                  FirstCellsOut* grouped, FirstCellsOut* alone);
+  static void run(HexMesh const& mesh, MinMaxBvh const& bvh, ValueWindows const& windows, Ray const* rays, int n,
+                  FirstCellsOut* grouped, FirstCellsOut* alone);
+};
+CELLRAY_EXTERN_ENTRY(FirstCellsProbe)
+
 }  // namespace cellray::test

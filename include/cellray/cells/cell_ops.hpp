@@ -29,6 +29,11 @@
 //                             s_in, inv_dd, exit_face&): the clip from the face
 //                             the march entered through
 //   occlusion_in_pairs        grouped occlusion clips (cell, ray) pairs
+//   shares_window_setup       packets with one origin can share a cell's clip setup;
+//                             then also WindowSetup, window_setup(c, origin) and
+//                             clip_window_set(r, c, setup, lanes, t_lo, t_hi): the bits of
+//                             clip_window; and march_clips_window: march_clip_window
+//                             is clip_window (a march's locate may share it too)
 //   holds_folded_tets         some cells may be tets stored as this type; then also
 //                             is_folded_tet(keys), broadcast_folded_tet(xyz, k) -> FoldedTet,
 //                             folded_tet_param(folded, p)

@@ -862,6 +862,81 @@ inline HexClip<A> clip_hex_window(RayBatch<A> const& ray, CellCorners<A, 8> cons
   return r;
 }
 
+/// What clip_hex_window takes from a cell whose six faces are all
+/// parallelograms (a structured grid's hexahedra) and from the rays'
+/// origin, apart from the directions: each face's canonical corner order
+/// and plane, with its crossing's dual basis. Packets from one camera
+/// share their origin: a group of them computes this once per cell
+/// (hex_window_setup with a broadcast origin) and each clips with it
+/// (clip_hex_set), with the bits clip_hex_window would get. Cells with a
+/// curved, triangular or collapsed face are not `planar`: clip_hex_set
+/// then runs clip_hex_window. Uniform corners (a packet leaf's broadcast
+/// cell) only; others are not `planar` either.
+template <class A> struct HexWindowSetup {
+  struct Face {
+    int order[4];            ///< canonical corner order (isa_detail::canonical_face_order)
+    Vec3<A> n, p00;          ///< normal and first corner - origin (isa_detail::FacePlane)
+    Vec3<A> dual_u, dual_v;  ///< cross(e00, n), cross(n, e10): FacePlane::uv's basis
+    vfloat<A> num, inv_nn;   ///< dot(n, p00), 1 / dot(n, n)
+  };
+  bool planar = false;
+  Face face[6];
+};
+
+template <class A>
+inline HexWindowSetup<A> hex_window_setup(CellCorners<A, 8> const& c, Vec3<A> const& o) {
+  HexWindowSetup<A> s;
+  if (!c.uniform) return s;
+  for (int f = 0; f < 6; ++f) {
+    int k = 0;
+    if (isa_detail::uniform_face_kind(c.uniform_key, f, k) != 0) return s;
+    typename HexWindowSetup<A>::Face& F = s.face[f];
+    isa_detail::canonical_face_order(c.uniform_key, f, F.order);
+    isa_detail::FacePlane<A> const P =
+        isa_detail::face_plane<A>(c.p(F.order[0]), c.p(F.order[1]), c.p(F.order[2]), c.p(F.order[3]), o);
+    if (!simd::all(P.para)) return s;  // one cell in every lane
+    F.n = P.n, F.p00 = P.p00;
+    F.dual_u = cross(P.e00, P.n), F.dual_v = cross(P.n, P.e10);
+    F.num = dot(P.n, P.p00);
+    F.inv_nn = vfloat<A>(1.f) / dot(P.n, P.n);
+  }
+  s.planar = true;
+  return s;
+}
+
+/// clip_hex_window from its setup (hex_window_setup for these rays' origin).
+template <class A>
+inline HexClip<A> clip_hex_set(RayBatch<A> const& ray, CellCorners<A, 8> const& c, HexWindowSetup<A> const& s,
+                               vmask<A> const& lanes, vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
+  if (!s.planar) return clip_hex_window(ray, c, lanes, t_lo, t_hi);
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  vfloat<A> const zero(0.f);
+  vfloat<A> const lo(-hex_patch_tolerance), hi(1.f + hex_patch_tolerance);
+  Vec3<A> const d = ray.dir();
+  isa_detail::HullAcc<A> acc{vfloat<A>(inf), vfloat<A>(-inf), zero, zero, {zero, zero, zero}, {zero, zero, zero}, vint<A>(0)};
+#pragma GCC unroll 6
+  for (int f = 0; f < 6; ++f) {
+    // isa_detail::patch_hits' parallelogram path, FacePlane::t and uv.
+    typename HexWindowSetup<A>::Face const& F = s.face[f];
+    vfloat<A> const t = F.num / dot(F.n, d);
+    Vec3<A> const r = t * d - F.p00;
+    vfloat<A> const u = dot(r, F.dual_u) * F.inv_nn, v = dot(r, F.dual_v) * F.inv_nn;
+    vmask<A> const ok = simd::abs(t) < vfloat<A>(inf) && u >= lo && u <= hi && v >= lo && v <= hi;
+    if (simd::any(ok)) {
+      isa_detail::PatchCorner<A> q[4];
+      isa_detail::ordered_patch<A>(c, F.order, q);
+      isa_detail::hull_add<A>(q, ok, t, u, v, f, acc);
+    }
+  }
+  HexClip<A> r;
+  r.t_in = acc.t_in, r.t_out = acc.t_out, r.s_in = acc.s_in, r.s_out = acc.s_out;
+  r.u_in = acc.u_in, r.u_out = acc.u_out;
+  r.hit = lanes && acc.t_in < acc.t_out && acc.t_out >= t_lo && acc.t_in <= t_hi;
+  r.affine = simd::all_lanes<A>();
+  r.linear = simd::no_lanes<A>();
+  return r;
+}
+
 /// clip_hex_window with every lane and the whole line.
 template <class A> inline HexClip<A> clip_hex(RayBatch<A> const& ray, CellCorners<A, 8> const& c) {
   constexpr float inf = std::numeric_limits<float>::infinity();
@@ -1396,6 +1471,21 @@ template <class A> struct CellOps<A, 8> {
   /// paths (SPMD leaves, marches) get the tet clip and a linear field from
   /// clip_window (Clip::linear).
   static constexpr bool holds_folded_tets = true;
+  /// Packets from one origin (a camera's) clip a cell whose faces are all
+  /// parallelograms from one setup (hex_window_setup; other cells: each
+  /// packet its own clip_hex_window). Folded tets take the tets' setup.
+  /// Not for marches: their clip of parallelepipeds is the slab test.
+  static constexpr bool shares_window_setup = true;
+  static constexpr bool march_clips_window = false;
+  using WindowSetup = HexWindowSetup<A>;
+  static WindowSetup window_setup(CellCorners<A, 8> const& c, Vec3<A> const& origin) {
+    return hex_window_setup(c, origin);
+  }
+  static Clip clip_window_set(RayBatch<A> const& r, CellCorners<A, 8> const& c, WindowSetup const& s,
+                              vmask<A> const& lanes, vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
+    if (!s.planar) return clip_window(r, c, lanes, t_lo, t_hi);
+    return clip_hex_set(r, c, s, lanes, t_lo, t_hi);
+  }
   /// Whether corner keys `key` (mesh order) are such a tetrahedron's (see
   /// isa_detail::is_folded_tet).
   static bool is_folded_tet(int32_t const (&k)[8]) { return isa_detail::is_folded_tet(k); }

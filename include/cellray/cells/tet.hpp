@@ -188,6 +188,96 @@ inline CellIsoHit<A> neubauer_crossings(CellClip<A> const& clip, vmask<A> const&
 
 }  // namespace isa_detail
 
+/// What clip_tet_window takes from a tet's corners and the rays' origins
+/// alone, apart from the directions: each face's plane normal turned into
+/// the cell and, per face, num = dot(n_in, a - o) for its first corner a.
+/// Packets from one camera share their origin: a group of them computes this
+/// once per cell (tet_window_setup with a broadcast origin) and each clips
+/// with it (clip_tet_set), with the bits clip_tet_window would get.
+template <class A> struct TetWindowSetup {
+  Vec3<A> n_in[4];
+  vfloat<A> num[4];
+  vfloat<A> in_sign;  ///< +1 where the cell lies on the side the stored normal n[3] points to
+  vmask<A> oriented;  ///< non-zero volume
+};
+
+template <class A>
+CELLRAY_FORCE_INLINE TetWindowSetup<A> tet_window_setup(CellCorners<A, 4> const& c, Vec3<A> const& o) {
+  vfloat<A> const zero(0.f);
+  Vec3<A> const p[4] = {c.p(0), c.p(1), c.p(2), c.p(3)};
+  // Face f = the corners other than f, in ascending stored order
+  // (isa_detail::tet_faces): edges from its first corner and normal e1 x e2.
+  Vec3<A> const e01 = p[1] - p[0], e02 = p[2] - p[0], e03 = p[3] - p[0];
+  Vec3<A> const n[4] = {cross(p[2] - p[1], p[3] - p[1]), cross(e02, e03), cross(e01, e03), cross(e01, e02)};
+  // 6 x signed volume. The cell lies on the side n[3] points to when it is
+  // positive; faces 1 and 3 share that orientation, 0 and 2 are reversed
+  // (odd permutations of the corners), so one sign orients all four planes
+  // into the cell. Turning a normal (times +-1) is exact, so both cells of a
+  // shared face get the same |num| and |den| bits, hence the same t.
+  vfloat<A> const det = dot(n[3], e03);
+  vmask<A> const pos = det > zero;
+  TetWindowSetup<A> s;
+  s.oriented = pos || det < zero;
+  s.in_sign = simd::select(pos, vfloat<A>(1.f), vfloat<A>(-1.f));
+  for (int f = 0; f < 4; ++f) {
+    s.n_in[f] = ((f & 1) ? s.in_sign : -s.in_sign) * n[f];
+    s.num[f] = dot(s.n_in[f], p[isa_detail::tet_faces[f][0]] - o);
+  }
+  return s;
+}
+
+/// clip_tet_window from its setup (tet_window_setup for these rays' origin).
+template <class A>
+CELLRAY_FORCE_INLINE CellClip<A> clip_tet_set(RayBatch<A> const& ray, CellCorners<A, 4> const& c,
+                                              TetWindowSetup<A> const& s, vmask<A> const& lanes,
+                                              vfloat<A> const& t_lo, vfloat<A> const& t_hi,
+                                              vint<A>* exit_face = nullptr) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  vfloat<A> const zero(0.f);
+  Vec3<A> const d = ray.dir();
+  vmask<A> ok = lanes && s.oriented;
+  CellClip<A> r;
+  r.t_in = vfloat<A>(-inf), r.t_out = vfloat<A>(inf);
+  vfloat<A> t[4];
+  vmask<A> new_in[4], new_out[4];
+  for (int f = 0; f < 4; ++f) {
+    // With the normal pointing into the cell: entering is den > 0, leaving
+    // den < 0, origin inside the plane num <= 0.
+    vfloat<A> const den = dot(s.n_in[f], d);
+    t[f] = s.num[f] / den;
+    // Parallel to the plane (den == 0 exactly) and outside it: no interval.
+    ok = ok && simd::select(den == zero, s.num[f], zero) <= zero;
+    new_in[f] = den > zero && t[f] > r.t_in;
+    new_out[f] = den < zero && t[f] < r.t_out;
+    r.t_in = simd::select(new_in[f], t[f], r.t_in);
+    r.t_out = simd::select(new_out[f], t[f], r.t_out);
+    if (exit_face) *exit_face = simd::select(simd::to_int_mask(new_out[f]), vint<A>(f), *exit_face);
+  }
+  r.hit = ok && r.t_in < r.t_out && r.t_out >= t_lo && r.t_in <= t_hi;
+  r.s_in = zero, r.s_out = zero;
+  if (simd::none(r.hit)) return r;
+  // The face each lane finally enters (leaves) through: the last one that
+  // raised t_in (lowered t_out).
+  Vec3<A> const o = ray.origin();
+  vmask<A> in_taken = !r.hit, out_taken = !r.hit;
+  for (int f = 3; f >= 0; --f) {
+    vmask<A> const is_in = new_in[f] && !in_taken, is_out = new_out[f] && !out_taken;
+    in_taken = in_taken || new_in[f], out_taken = out_taken || new_out[f];
+    if (simd::none(is_in || is_out)) continue;
+    // The value where the line crosses the plane, from this face's corners
+    // only, with the face's own stored normal (the crossing's weights are
+    // in its orientation).
+    int const* fc = isa_detail::tet_faces[f];
+    Vec3<A> const a = c.p(fc[0]), e1 = c.p(fc[1]) - a, e2 = c.p(fc[2]) - a;
+    Vec3<A> const n = ((f & 1) ? s.in_sign : -s.in_sign) * s.n_in[f];
+    isa_detail::TriangleCrossing<A> const x = isa_detail::triangle_crossing<A>(o, d, t[f], a, e1, e2, n);
+    vfloat<A> const v = x.value(c.s[fc[0]], c.s[fc[1]], c.s[fc[2]]);
+    r.s_in = simd::select(is_in, v, r.s_in);
+    r.s_out = simd::select(is_out, v, r.s_out);
+  }
+  return r;
+}
+
 /// clip_tet for the lanes in `lanes` whose interval meets [t_lo, t_hi]
 /// (per lane): `hit` = the line crosses the cell && lanes && t_out >= t_lo &&
 /// t_in <= t_hi; t_in, t_out, s_in, s_out are meaningful in hit lanes only.
@@ -211,63 +301,7 @@ inline CellIsoHit<A> neubauer_crossings(CellClip<A> const& clip, vmask<A> const&
 template <class A>
 inline CellClip<A> clip_tet_window(RayBatch<A> const& ray, CellCorners<A, 4> const& c, vmask<A> const& lanes,
                                    vfloat<A> const& t_lo, vfloat<A> const& t_hi, vint<A>* exit_face = nullptr) {
-  constexpr float inf = std::numeric_limits<float>::infinity();
-  vfloat<A> const zero(0.f);
-  Vec3<A> const o = ray.origin(), d = ray.dir();
-  Vec3<A> const p[4] = {c.p(0), c.p(1), c.p(2), c.p(3)};
-  // Face f = the corners other than f, in ascending stored order
-  // (isa_detail::tet_faces): edges from its first corner and normal e1 x e2.
-  Vec3<A> const e01 = p[1] - p[0], e02 = p[2] - p[0], e03 = p[3] - p[0];
-  Vec3<A> const e1[4] = {p[2] - p[1], e02, e01, e01}, e2[4] = {p[3] - p[1], e03, e03, e02};
-  Vec3<A> n[4];
-  for (int f = 0; f < 4; ++f) n[f] = cross(e1[f], e2[f]);
-  // 6 x signed volume. The cell lies on the side n[3] points to when it is
-  // positive; faces 1 and 3 share that orientation, 0 and 2 are reversed
-  // (odd permutations of the corners), so one sign orients all four planes
-  // into the cell.
-  vfloat<A> const det = dot(n[3], e03);
-  vmask<A> const pos = det > zero;
-  vmask<A> ok = lanes && (pos || det < zero);
-  vfloat<A> const in_sign = simd::select(pos, vfloat<A>(1.f), vfloat<A>(-1.f));
-  vfloat<A> const sgn[4] = {-in_sign, in_sign, -in_sign, in_sign};
-  CellClip<A> r;
-  r.t_in = vfloat<A>(-inf), r.t_out = vfloat<A>(inf);
-  vfloat<A> t[4];
-  vmask<A> new_in[4], new_out[4];
-  for (int f = 0; f < 4; ++f) {
-    Vec3<A> const& a = p[isa_detail::tet_faces[f][0]];
-    // num and den with the normal pointing into the cell (times +-1: exact,
-    // so both cells of a shared face get the same |t| bits): entering is
-    // den > 0, leaving den < 0, origin inside the plane num <= 0.
-    vfloat<A> const num = dot(n[f], a - o) * sgn[f];
-    vfloat<A> const den = dot(n[f], d) * sgn[f];
-    t[f] = num / den;
-    // Parallel to the plane (den == 0 exactly) and outside it: no interval.
-    ok = ok && simd::select(den == zero, num, zero) <= zero;
-    new_in[f] = den > zero && t[f] > r.t_in;
-    new_out[f] = den < zero && t[f] < r.t_out;
-    r.t_in = simd::select(new_in[f], t[f], r.t_in);
-    r.t_out = simd::select(new_out[f], t[f], r.t_out);
-    if (exit_face) *exit_face = simd::select(simd::to_int_mask(new_out[f]), vint<A>(f), *exit_face);
-  }
-  r.hit = ok && r.t_in < r.t_out && r.t_out >= t_lo && r.t_in <= t_hi;
-  r.s_in = zero, r.s_out = zero;
-  if (simd::none(r.hit)) return r;
-  // The face each lane finally enters (leaves) through: the last one that
-  // raised t_in (lowered t_out).
-  vmask<A> in_taken = !r.hit, out_taken = !r.hit;
-  for (int f = 3; f >= 0; --f) {
-    vmask<A> const is_in = new_in[f] && !in_taken, is_out = new_out[f] && !out_taken;
-    in_taken = in_taken || new_in[f], out_taken = out_taken || new_out[f];
-    if (simd::none(is_in || is_out)) continue;
-    // The value where the line crosses the plane, from this face's corners only.
-    int const* fc = isa_detail::tet_faces[f];
-    isa_detail::TriangleCrossing<A> const x = isa_detail::triangle_crossing<A>(o, d, t[f], p[fc[0]], e1[f], e2[f], n[f]);
-    vfloat<A> const s = x.value(c.s[fc[0]], c.s[fc[1]], c.s[fc[2]]);
-    r.s_in = simd::select(is_in, s, r.s_in);
-    r.s_out = simd::select(is_out, s, r.s_out);
-  }
-  return r;
+  return clip_tet_set(ray, c, tet_window_setup(c, ray.origin()), lanes, t_lo, t_hi, exit_face);
 }
 
 /// A march's clip of the tet a lane entered through face `entry` (the face
@@ -481,6 +515,19 @@ template <class A> struct CellOps<A, 4> {
   static constexpr bool keeps_param = false;
   /// Another type's cells that are tets in disguise (see CellOps<A, 8>): none.
   static constexpr bool holds_folded_tets = false;
+  /// Packets from one origin (a camera's) clip a cell from one setup: its
+  /// face normals and their distances from the origin.
+  static constexpr bool shares_window_setup = true;
+  /// march_clip_window is clip_window: a march's locate may share the setup.
+  static constexpr bool march_clips_window = true;
+  using WindowSetup = TetWindowSetup<A>;
+  static WindowSetup window_setup(CellCorners<A, 4> const& c, Vec3<A> const& origin) {
+    return tet_window_setup(c, origin);
+  }
+  static Clip clip_window_set(RayBatch<A> const& r, CellCorners<A, 4> const& c, WindowSetup const& s,
+                              vmask<A> const& lanes, vfloat<A> const& t_lo, vfloat<A> const& t_hi) {
+    return clip_tet_set(r, c, s, lanes, t_lo, t_hi);
+  }
   static Clip clip(RayBatch<A> const& r, CellCorners<A, 4> const& c) { return clip_tet(r, c); }
   /// The clip narrowed to [t_lo, t_hi]; `exit_face`, if given, receives the
   /// face (mesh face order, FaceNeighbours') the ray leaves through.

@@ -103,7 +103,7 @@ inline void nearest_hits(PreparedScene const& s, RayPacket<A> const (&r)[K], uin
         return q;
       };
       auto q = make_array<K>(query);
-      FirstHitGroup<A, N, K> group{q.data(), r};
+      FirstHitGroup<A, N, K> group(q.data(), r, lanes);
       traverse_packets<A, K>(part.tree, r, lanes, group);
       for (int k = 0; k < K; ++k) keep_nearer<A>(q[k], int(pi), best[k]);
     });

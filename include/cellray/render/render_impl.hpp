@@ -112,7 +112,7 @@ void dvr_first_cells(PreparedScene const& s, RayPacket<A> const (&r)[K], DvrSpan
       return FirstCellQuery<A, N>(pp.tree, mesh, r[k], s.windows, sp[k].t_enter, sp[k].t_exit);
     };
     auto q = make_array<K>(query);
-    FirstCellGroup<A, N, K> group{q.data(), r};
+    FirstCellGroup<A, N, K> group(q.data(), r, lanes);
     traverse_packets<A, K>(pp.tree, r, lanes, group);
     for (int k = 0; k < K; ++k) cells[k] = q[k].cell;
   });

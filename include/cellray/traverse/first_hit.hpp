@@ -114,11 +114,16 @@ template <class A, int N> struct FirstHitQuery {
   /// keeping the gradient at each hit when asked (at the hit's cell
   /// coordinates where the type keeps them).
   void cell_hits(CellCorners<A, N> const& c, vmask<A> const& m, vint<A> const& slots) {
+    cell_hits_in(c, CellOps<A, N>::clip_window(ray_batch(r), c, m, r.tmin, hit.t), slots);
+  }
+
+  /// cell_hits with the cell's clip `k` to [tmin, hit.t] for its lanes.
+  void cell_hits_in(CellCorners<A, N> const& c, typename CellOps<A, N>::Clip const& k, vint<A> const& slots) {
     using Ops = CellOps<A, N>;
     Vec3<A> u{};
     bool const keep_param = Ops::keeps_param && (want_gradient || want_param);
     CellIsoHit<A> const h =
-        iso_in_window(ray_batch(r), c, m, r.tmin, hit.t, isos.values, isos.count, method, keep_param ? &u : nullptr);
+        iso_in_clip<A, N>(ray_batch(r), k, c, r.tmin, hit.t, isos.values, isos.count, method, keep_param ? &u : nullptr);
     if (simd::none(h.hit)) return;
     update(h.hit, h.t, h.iso_index, slots);
     if (Ops::keeps_param && want_param) param = select<A>(h.hit, u, param);
@@ -130,8 +135,13 @@ template <class A, int N> struct FirstHitQuery {
   /// need no search. The hit keeps this type's coordinates
   /// (folded_tet_param) and the tet's constant gradient.
   void folded_tet_hits(FoldedTet<A> const& f, vmask<A> const& m, vint<A> const& slots) {
+    folded_tet_hits_in(f, CellOps<A, 4>::clip_window(ray_batch(r), f.tet, m, r.tmin, hit.t), slots);
+  }
+
+  /// folded_tet_hits with the tet's clip `k` to [tmin, hit.t] for its lanes.
+  void folded_tet_hits_in(FoldedTet<A> const& f, CellClip<A> const& k, vint<A> const& slots) {
     RayBatch<A> const ray = ray_batch(r);
-    CellIsoHit<A> const h = iso_in_window(ray, f.tet, m, r.tmin, hit.t, isos.values, isos.count, method);
+    CellIsoHit<A> const h = iso_in_clip<A, 4>(ray, k, f.tet, r.tmin, hit.t, isos.values, isos.count, method);
     if (simd::none(h.hit)) return;
     update(h.hit, h.t, h.iso_index, slots);
     if (want_param)
@@ -145,9 +155,19 @@ template <class A, int N> struct FirstHitQuery {
 /// once for all packets, and each packet with a lane in a cell's box runs
 /// the cell's kernel over all its lanes in the leaf, as
 /// FirstHitQuery::leaf does, so each packet finds the hits it would alone.
+/// Packets from one origin clip a cell from one setup (CellOps::
+/// window_setup: a tet's face planes, a parallelogram-faced hexahedron's
+/// face planes and crossing bases), with the bits of each packet's own clip.
 template <class A, int N, int K> struct FirstHitGroup {
   FirstHitQuery<A, N>* q;  ///< K queries, packet k's in q[k]
   RayPacket<A> const* r;   ///< the K packets
+  /// The packets' one origin, if they have one (one_origin): cells that can
+  /// share their clip setup (CellOps::shares_window_setup) set it up once.
+  Vec3<A> origin{};
+  bool shared_origin;
+
+  FirstHitGroup(FirstHitQuery<A, N>* queries, RayPacket<A> const* rays, vmask<A> const (&lanes)[K])
+      : q(queries), r(rays), shared_origin(one_origin<A, K>(rays, lanes, origin)) {}
 
   bool node_relevant(float vmin, float vmax) const { return q[0].node_relevant(vmin, vmax); }
   vfloat<A> t_lo(int k) const { return q[k].t_lo(); }
@@ -176,6 +196,16 @@ template <class A, int N, int K> struct FirstHitGroup {
       if constexpr (CellOps<A, N>::holds_folded_tets) {
         if (CellOps<A, N>::is_folded_tet(k.key)) {
           FoldedTet<A> const f = CellOps<A, N>::broadcast_folded_tet(xyz, k);
+          if (shared_origin && (in & (in - 1))) {
+            auto const set = CellOps<A, 4>::window_setup(f.tet, origin);
+            for (uint32_t b = in; b; b &= b - 1) {
+              int const p = __builtin_ctz(b);
+              q[p].folded_tet_hits_in(
+                  f, CellOps<A, 4>::clip_window_set(ray_batch(r[p]), f.tet, set, lanes[p], r[p].tmin, q[p].hit.t),
+                  slot);
+            }
+            continue;
+          }
           for (uint32_t b = in; b; b &= b - 1) {
             int const p = __builtin_ctz(b);
             q[p].folded_tet_hits(f, lanes[p], slot);
@@ -184,6 +214,17 @@ template <class A, int N, int K> struct FirstHitGroup {
         }
       }
       CellCorners<A, N> const c = broadcast<A, N>(mesh, k);
+      if constexpr (CellOps<A, N>::shares_window_setup) {
+        if (shared_origin && (in & (in - 1))) {  // two packets or more
+          auto const set = CellOps<A, N>::window_setup(c, origin);
+          for (uint32_t b = in; b; b &= b - 1) {
+            int const p = __builtin_ctz(b);
+            q[p].cell_hits_in(
+                c, CellOps<A, N>::clip_window_set(ray_batch(r[p]), c, set, lanes[p], r[p].tmin, q[p].hit.t), slot);
+          }
+          continue;
+        }
+      }
       for (uint32_t b = in; b; b &= b - 1) {
         int const p = __builtin_ctz(b);
         q[p].cell_hits(c, lanes[p], slot);

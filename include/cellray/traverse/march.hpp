@@ -98,7 +98,10 @@ template <class A, int N> struct FirstCellQuery {
   vfloat<A> t_hi() const { return simd::min(hi, best_t); }  // a cell entered past the best cannot be better
 
   void visit(CellCorners<A, N> const& c, vmask<A> const& m, vint<A> const& cells) {
-    auto const k = CellOps<A, N>::march_clip_window(ray_batch(r), c, m, lo, t_hi(), nullptr);
+    visit_clipped(c, CellOps<A, N>::march_clip_window(ray_batch(r), c, m, lo, t_hi(), nullptr), cells);
+  }
+  /// visit with the cell's march clip `k` to [lo, t_hi()] for its lanes.
+  void visit_clipped(CellCorners<A, N> const& c, typename CellOps<A, N>::Clip const& k, vint<A> const& cells) {
     vmask<A> ok = k.hit && k.t_out > lo && k.t_in < best_t && !has_nan_value(c) && simd::to_float_mask(!(cells == skip));
     if (simd::none(ok)) return;
     ok = ok && visible_values<A, N>(windows, c, k);
@@ -123,10 +126,18 @@ template <class A, int N> struct FirstCellQuery {
 /// (traverse_packets): a leaf's cells are read, filtered by value and boxed
 /// once for all packets; each packet with lanes in a cell's box clips it
 /// for those lanes, as FirstCellQuery::leaf does, so each finds the cells
-/// it would alone.
+/// it would alone (packets from one origin from one clip setup per cell,
+/// where the type's march clips as its window clip: tets).
 template <class A, int N, int K> struct FirstCellGroup {
   FirstCellQuery<A, N>* q;  ///< K queries, packet k's in q[k]
   RayPacket<A> const* r;    ///< the K packets
+  /// The packets' one origin, if they have one (one_origin): cells that can
+  /// share their clip setup (CellOps::shares_window_setup) set it up once.
+  Vec3<A> origin{};
+  bool shared_origin;
+
+  FirstCellGroup(FirstCellQuery<A, N>* queries, RayPacket<A> const* rays, vmask<A> const (&lanes)[K])
+      : q(queries), r(rays), shared_origin(one_origin<A, K>(rays, lanes, origin)) {}
 
   bool node_relevant(float vmin, float vmax) const { return q[0].node_relevant(vmin, vmax); }
   vfloat<A> t_lo(int k) const { return q[k].t_lo(); }
@@ -156,6 +167,17 @@ template <class A, int N, int K> struct FirstCellGroup {
       order_corners(mesh.vertex_count(), k);
       CellCorners<A, N> const c = broadcast<A, N>(mesh, k);
       vint<A> const id = vint<A>(int32_t(cell));
+      if constexpr (CellOps<A, N>::shares_window_setup && CellOps<A, N>::march_clips_window) {
+        if (shared_origin && (any & (any - 1))) {  // two packets or more
+          auto const set = CellOps<A, N>::window_setup(c, origin);
+          for (uint32_t b = any; b; b &= b - 1) {
+            int const p = __builtin_ctz(b);
+            q[p].visit_clipped(
+                c, CellOps<A, N>::clip_window_set(ray_batch(r[p]), c, set, in[p], q[p].lo, q[p].t_hi()), id);
+          }
+          continue;
+        }
+      }
       for (uint32_t b = any; b; b &= b - 1) {
         int const p = __builtin_ctz(b);
         q[p].visit(c, in[p], id);

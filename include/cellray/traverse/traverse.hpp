@@ -68,6 +68,26 @@ template <int K, class F> inline auto make_array(F const& f) {
   return make_array<K>(f, std::make_index_sequence<size_t(K)>());
 }
 
+/// Whether every lane of `lanes` in the K packets `r` starts at one point
+/// (a camera's packets), kept in `origin` as a broadcast: grouped queries
+/// then set up a cell's clip once for all packets (CellOps::
+/// shares_window_setup). Packets without lanes are not read.
+template <class A, int K>
+inline bool one_origin(RayPacket<A> const* r, vmask<A> const (&lanes)[K], Vec3<A>& origin) {
+  int first = 0;
+  while (first < K && simd::none(lanes[first])) ++first;
+  if (first == K) return false;
+  alignas(64) float o[3][width<A>];
+  simd::store(o[0], r[first].ox), simd::store(o[1], r[first].oy), simd::store(o[2], r[first].oz);
+  int const l = __builtin_ctz(simd::movemask(lanes[first]));
+  origin = {vfloat<A>(o[0][l]), vfloat<A>(o[1][l]), vfloat<A>(o[2][l])};
+  for (int p = first; p < K; ++p)
+    if (simd::any(lanes[p]) &&
+        !simd::all(!lanes[p] || (r[p].ox == origin.x && r[p].oy == origin.y && r[p].oz == origin.z)))
+      return false;
+  return true;
+}
+
 template <class A, class Query>
 void traverse_packet(TreeView const& tree, RayPacket<A> const& r, vmask<A> active, Query& q, uint32_t root = 0,
                      int hybrid_threshold = 0) {
