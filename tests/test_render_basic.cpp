@@ -121,7 +121,8 @@ TEST_CASE("iso and DVR: packet, SPMD and hybrid render the same image on every I
 
 TEST_CASE("iso: four pixel blocks traced together find the hits each finds alone", "[render][isa]") {
   // Packet traversal finds the first hits of 2x2 pixel blocks in one
-  // traversal (traverse_packets); hybrid traversal with a threshold of 1
+  // traversal (traverse_packets), and their hits behind a translucent
+  // surface, layer by layer; hybrid traversal with a threshold of 1
   // is packet traversal one block at a time. The first hit's t is the
   // nearest crossing over every cell, whatever the order nodes and cells
   // are visited in: the depth is the same bits. Colours may differ where a

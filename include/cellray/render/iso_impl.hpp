@@ -379,28 +379,38 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           }
         }
       }
-      SceneHit<A> first[K];
-      if (grouped) nearest_hits<A, K>(s, gr, glive, isos, p.roots, query_gradient, param_attributes, first);
-      for (int pk = 0; pk < K; ++pk) {
-        if (!gvalid[pk]) continue;
-        int const(&px)[W] = gpx[pk];
-        int const(&py)[W] = gpy[pk];
-        uint32_t const valid = gvalid[pk];
-        RayPacket<A> r = gr[pk];
-        Vec3<A> const dir = ray_batch(r).dir();
-        vfloat<A> color_r = gcr[pk], color_g = gcg[pk], color_b = gcb[pk], alpha = galpha[pk];
-        vfloat<A> depth = gdepth[pk];
-        vfloat<A> const depth_at(out.depth_opacity);
-        uint32_t live = glive[pk];
-        // Front-to-back layers: continue behind semi-transparent surfaces.
-        for (int layer = 0; layer < 16 && live; ++layer) {
-          SceneHit<A> const h = layer == 0 && grouped
-                                    ? first[pk]
-                                    : nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots, o.traversal,
-                                                     threshold, query_gradient, param_attributes);
+      // Front-to-back layers: continue behind semi-transparent surfaces,
+      // each layer's hits of the four packets in one traversal.
+      vfloat<A> const depth_at(out.depth_opacity);
+      auto const any_live = [&glive] {
+        uint32_t any = 0;
+        for (uint32_t l : glive) any |= l;
+        return any != 0;
+      };
+      for (int layer = 0; layer < 16 && any_live(); ++layer) {
+        SceneHit<A> hits[K];
+        if (grouped) nearest_hits<A, K>(s, gr, glive, isos, p.roots, query_gradient, param_attributes, hits);
+        for (int pk = 0; pk < K; ++pk) {
+          uint32_t& live = glive[pk];
+          if (!live) continue;
+          int const(&px)[W] = gpx[pk];
+          int const(&py)[W] = gpy[pk];
+          RayPacket<A>& r = gr[pk];
+          Vec3<A> const dir = ray_batch(r).dir();
+          vfloat<A>& color_r = gcr[pk];
+          vfloat<A>& color_g = gcg[pk];
+          vfloat<A>& color_b = gcb[pk];
+          vfloat<A>& alpha = galpha[pk];
+          vfloat<A>& depth = gdepth[pk];
+          SceneHit<A> const h = grouped ? hits[pk]
+                                        : nearest_hit<A>(s, r, simd::mask_from_bits<A>(live), isos, p.roots,
+                                                         o.traversal, threshold, query_gradient, param_attributes);
           vmask<A> const hit = simd::mask_from_bits<A>(live) && simd::to_float_mask(h.item >= vint<A>(0));
           uint32_t hit_bits = simd::movemask(hit);
-          if (!hit_bits) break;
+          if (!hit_bits) {
+            live = 0;
+            continue;
+          }
           // Hit points, normals and the light, all lanes at once (lanes
           // without a hit compute garbage nobody reads); the shadow and AO
           // rays below read them per lane.
@@ -649,6 +659,14 @@ void render_iso_tile(PreparedScene const& s, Camera const& cam, IsoParams const&
           r.tmin = simd::select(next, t + simd::max(vfloat<A>(eps), vfloat<A>(1e-5f) * t), r.tmin);
           live = simd::movemask(next);
         }
+      }
+      for (int pk = 0; pk < K; ++pk) {
+        if (!gvalid[pk]) continue;
+        int const(&px)[W] = gpx[pk];
+        int const(&py)[W] = gpy[pk];
+        uint32_t const valid = gvalid[pk];
+        vfloat<A> const color_r = gcr[pk], color_g = gcg[pk], color_b = gcb[pk], alpha = galpha[pk];
+        vfloat<A> const depth = gdepth[pk];
         vfloat<A> const bg_a(p.background.a), rest = (one - alpha) * bg_a;
         auto const cr = simd::to_array<A>(color_r + rest * vfloat<A>(p.background.r));
         auto const cg = simd::to_array<A>(color_g + rest * vfloat<A>(p.background.g));
