@@ -188,22 +188,39 @@ TEST_CASE("iso: four pixel blocks traced together find the hits each finds alone
   }
 }
 
-TEST_CASE("DVR: four pixel blocks locating their first cells together march as each would alone", "[render][isa]") {
-  // Marching cell segments: packet traversal locates the first visible
-  // cell of 2x2 pixel blocks in one traversal, then each block marches;
-  // hybrid traversal with a threshold of 1 locates one block at a time.
-  // Each ray starts in the same cell (ties aside: a ray entering through
-  // an edge may start in either cell, and integrate the same field).
+TEST_CASE("DVR: four pixel blocks marching together, locating their cells in one traversal, march as each alone",
+          "[render][isa]") {
+  // Marching cell segments: packet traversal marches 2x2 pixel blocks
+  // together, each block as far as its cells take it, then locates the
+  // next visible cell of all their waiting rays in one traversal (at the
+  // start, after leaving the mesh, after transparent stretches); hybrid
+  // traversal with a threshold of 1 marches and locates one block at a
+  // time. Each locate finds the same cell (ties aside: a ray entering
+  // through an edge may start in either cell, and integrate the same field).
   auto tets = generate_tets(6000, 3);
   auto family = generate_hex_family(3000, 2);  // hexahedra, wedges, pyramids
   TetMesh const tm = tets.mesh();
   HexMesh const hm = family.mesh();
-  MinMaxBvh const tb = build_minmax_bvh(tm), hb = build_minmax_bvh(hm);
-  TetNeighbours const tn = build_tet_neighbours(tm);
+  // A shell removed from a tet block: rays leave the mesh and enter it
+  // again, and cross it where a narrow band of values sees nothing.
+  auto block = generate_tets(6 * 12 * 12 * 12, 9);
+  std::vector<uint32_t> kept;
+  for (size_t c = 0; c + 4 <= block.cells.size(); c += 4) {
+    glm::vec3 m(0.f);
+    for (int i = 0; i < 4; ++i) {
+      uint32_t const v = block.cells[c + size_t(i)];
+      m += glm::vec3(block.xyz[3 * v], block.xyz[3 * v + 1], block.xyz[3 * v + 2]);
+    }
+    float const r = glm::length(0.25f * m);
+    if (r < 0.45f || r > 0.7f) kept.insert(kept.end(), block.cells.begin() + long(c), block.cells.begin() + long(c) + 4);
+  }
+  TetMesh const shell{view(block.xyz), view(kept), view(block.field)};
+  MinMaxBvh const tb = build_minmax_bvh(tm), hb = build_minmax_bvh(hm), sb = build_minmax_bvh(shell);
+  TetNeighbours const tn = build_tet_neighbours(tm), sn = build_tet_neighbours(shell);
   HexNeighbours const hn = build_hex_neighbours(hm);
-  Scene const scenes[] = {Scene(tm, tb, nullptr, &tn), Scene(hm, hb, nullptr, &hn)};
-  char const* const names[] = {"tets", "hex family"};
-  for (int which = 0; which < 2; ++which) {
+  Scene const scenes[] = {Scene(tm, tb, nullptr, &tn), Scene(hm, hb, nullptr, &hn), Scene(shell, sb, nullptr, &sn)};
+  char const* const names[] = {"tets", "hex family", "tets, a shell removed, a narrow band of values"};
+  for (int which = 0; which < 3; ++which) {
     Scene const& scene = scenes[which];
     glm::vec3 lo, hi;
     scene.bounds(lo, hi);
@@ -211,6 +228,12 @@ TEST_CASE("DVR: four pixel blocks locating their first cells together march as e
     DvrParams dvr;
     dvr.tf = transfer_function_preset("viridis", 0.f, 0.75f);
     dvr.tf.unit_distance = 0.2f;
+    if (which == 2) {
+      dvr.tf.values = {0.f, 0.4f, 0.5f, 0.6f, 1.f};
+      dvr.tf.rgba = {{0.1f, 0.2f, 0.9f, 0.f}, {0.1f, 0.2f, 0.9f, 0.f}, {0.9f, 0.6f, 0.1f, 0.8f}, {0.9f, 0.1f, 0.1f, 0.f},
+                     {0.9f, 0.1f, 0.1f, 0.f}};
+      dvr.tf.unit_distance = 0.1f;
+    }
     std::vector<float> const depth_in = depth_ramp(cam, lo, hi);
     auto render_with = [&](Traversal t) {
       RenderOptions const o = grouped_or_alone(t);
