@@ -65,14 +65,16 @@ std::vector<float> depth_ramp(Camera const& cam, glm::vec3 lo, glm::vec3 hi) {
   return d;
 }
 
-/// Packet traversal (2x2 pixel blocks together), or hybrid with a threshold
-/// of 1 (packet traversal, one block at a time); tiles of 8 cut the groups.
+/// Packet traversal (eight pixel blocks together: group_x x group_y), or
+/// hybrid with a threshold of 1 (packet traversal, one block at a time).
+/// Tiles of 20 pixels hold whole groups (8x4, 8x8 or 16x8 pixels) and cut
+/// others.
 RenderOptions grouped_or_alone(Traversal t) {
   RenderOptions o;
   o.isa = test::isa();
   o.traversal = t;
   o.hybrid_threshold = 1;
-  o.tile_size = 8;
+  o.tile_size = 20;
   return o;
 }
 
@@ -119,8 +121,8 @@ TEST_CASE("iso and DVR: packet, SPMD and hybrid render the same image on every I
   }
 }
 
-TEST_CASE("iso: four pixel blocks traced together find the hits each finds alone", "[render][isa]") {
-  // Packet traversal finds the first hits of 2x2 pixel blocks in one
+TEST_CASE("iso: eight pixel blocks traced together find the hits each finds alone", "[render][isa]") {
+  // Packet traversal finds the first hits of eight pixel blocks in one
   // traversal (traverse_packets), and their hits behind a translucent
   // surface, layer by layer; hybrid traversal with a threshold of 1
   // is packet traversal one block at a time. The first hit's t is the
@@ -188,9 +190,9 @@ TEST_CASE("iso: four pixel blocks traced together find the hits each finds alone
   }
 }
 
-TEST_CASE("DVR: four pixel blocks marching together, locating their cells in one traversal, march as each alone",
+TEST_CASE("DVR: eight pixel blocks marching together, locating their cells in one traversal, march as each alone",
           "[render][isa]") {
-  // Marching cell segments: packet traversal marches 2x2 pixel blocks
+  // Marching cell segments: packet traversal marches eight pixel blocks
   // together, each block as far as its cells take it, then locates the
   // next visible cell of all their waiting rays in one traversal (at the
   // start, after leaving the mesh, after transparent stretches); hybrid

@@ -99,9 +99,9 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
                      Tile const& tile, FrameBuffer const& out) {
   constexpr int W = width<A>;
   DvrScratch<A> scratch(s);
-  // 2x2 neighbouring pixel blocks march together, locating their cells in
-  // one traversal (integrate_march_group), where they march.
-  constexpr int GX = 2, GY = 2, K = GX * GY;
+  // Eight neighbouring pixel blocks (group_x x group_y) march together,
+  // locating their cells in one traversal (integrate_march_group).
+  constexpr int GX = group_x<A>, GY = group_y<A>, K = GX * GY;
   bool const grouped = dvr_marches_in_groups(s, p, o);
   for (int gy = tile.y0; gy < tile.y0 + tile.h; gy += GY * block_h<A>)
     for (int gx = tile.x0; gx < tile.x0 + tile.w; gx += GX * block_w<A>) {
