@@ -190,15 +190,13 @@ TEST_CASE("iso: eight pixel blocks traced together find the hits each finds alon
   }
 }
 
-TEST_CASE("DVR: eight pixel blocks marching together, locating their cells in one traversal, march as each alone",
-          "[render][isa]") {
-  // Marching cell segments: packet traversal marches eight pixel blocks
-  // together, each block as far as its cells take it, then locates the
-  // next visible cell of all their waiting rays in one traversal (at the
-  // start, after leaving the mesh, after transparent stretches); hybrid
-  // traversal with a threshold of 1 marches and locates one block at a
-  // time. Each locate finds the same cell (ties aside: a ray entering
-  // through an edge may start in either cell, and integrate the same field).
+TEST_CASE("DVR: eight pixel blocks locating their first cells together march as each would alone", "[render][isa]") {
+  // Marching cell segments: packet traversal locates the first visible
+  // cell of eight pixel blocks in one traversal, then each block marches
+  // (and locates again after leaving the mesh or a transparent stretch);
+  // hybrid traversal with a threshold of 1 locates one block at a time.
+  // Each ray starts in the same cell (ties aside: a ray entering through
+  // an edge may start in either cell, and integrate the same field).
   auto tets = generate_tets(6000, 3);
   auto family = generate_hex_family(3000, 2);  // hexahedra, wedges, pyramids
   TetMesh const tm = tets.mesh();

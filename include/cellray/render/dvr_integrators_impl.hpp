@@ -393,18 +393,14 @@ void march_step(MixedMarch<A>& m, RayBatch<A> const& ray, vmask<A> const& has, v
 /// the same compositing, but one cell per lane per step, integrated across
 /// the lanes in SIMD as it is found. `March`: a CellMarch (one part with
 /// face neighbours) or a MixedMarch (a tet and a hexahedral part, linked),
-/// set up over [t_enter, t_exit]. `live`: the lanes to march, in and out.
-/// With `locate_here` the march locates its lanes' cells itself and returns
-/// when its rays are done; without, it returns when no live lane has a cell
-/// and leaves the locate to the caller (integrate_march_group), `live`
-/// then holds the lanes that go on. Not inlined: inside dvr_packet, GCC left
+/// set up over [t_enter, t_exit]. Not inlined: inside dvr_packet, GCC left
 /// shade_batch out of line (shaded tet DVR 4-5% slower). One copy per
 /// `shade` (integrate_march picks it): with the flag a constant, the
 /// unshaded march drops what only shading reads (a step's corner positions
 /// after its clip, the gradient cubics): DVR 1.01-1.03x, docs/performance.md.
 template <class A, class March, bool shade>
-CELLRAY_NOINLINE void integrate_march_as(PreparedScene const& s, March& m, RayPacket<A> const& r, vmask<A>& live,
-                                         bool locate_here, vfloat<A> const& t_exit, DvrParams const& p,
+CELLRAY_NOINLINE void integrate_march_as(PreparedScene const& s, March& m, RayPacket<A> const& r,
+                                         vmask<A> const& inside, vfloat<A> const& t_exit, DvrParams const& p,
                                          Traversal how, int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb,
                                          vfloat<A>& ca, float depth_at, vfloat<A>& depth) {
   PreparedTf const& ptf = *s.tf;
@@ -436,6 +432,7 @@ CELLRAY_NOINLINE void integrate_march_as(PreparedScene const& s, March& m, RayPa
     }
   };
   MarchPiece<A> pc;  // hexahedra and mixed: written by each step where it goes on (`go`)
+  vmask<A> live = inside;
   while (simd::any(live)) {
     // Lanes without a cell wait until no lane has one: one traversal then
     // locates them all. Locating as soon as half the live lanes wait was
@@ -444,7 +441,6 @@ CELLRAY_NOINLINE void integrate_march_as(PreparedScene const& s, March& m, RayPa
     // idle lanes do.
     vmask<A> const has = live && m.has_cell();
     if (simd::none(has)) {
-      if (!locate_here) return;
       live = live && !m.locate(live, how, threshold);
       continue;
     }
@@ -467,54 +463,13 @@ CELLRAY_NOINLINE void integrate_march_as(PreparedScene const& s, March& m, RayPa
 }
 
 template <class A, class March>
-inline void integrate_march(PreparedScene const& s, March& m, RayPacket<A> const& r, vmask<A>& live,
-                            bool locate_here, vfloat<A> const& t_exit, DvrParams const& p, Traversal how,
-                            int threshold, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca, float depth_at,
-                            vfloat<A>& depth) {
+inline void integrate_march(PreparedScene const& s, March& m, RayPacket<A> const& r, vmask<A> const& inside,
+                            vfloat<A> const& t_exit, DvrParams const& p, Traversal how, int threshold, vfloat<A>& cr,
+                            vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca, float depth_at, vfloat<A>& depth) {
   if (p.shading.enabled)
-    integrate_march_as<A, March, true>(s, m, r, live, locate_here, t_exit, p, how, threshold, cr, cg, cb, ca,
-                                       depth_at, depth);
+    integrate_march_as<A, March, true>(s, m, r, inside, t_exit, p, how, threshold, cr, cg, cb, ca, depth_at, depth);
   else
-    integrate_march_as<A, March, false>(s, m, r, live, locate_here, t_exit, p, how, threshold, cr, cg, cb, ca,
-                                        depth_at, depth);
-}
-
-/// The colour of a packet of DVR rays: premultiplied colour and opacity,
-/// and where the opacity first reaches the frame's depth opacity (+inf: never).
-template <class A> struct DvrColor {
-  vfloat<A> r = vfloat<A>(0.f), g = vfloat<A>(0.f), b = vfloat<A>(0.f), a = vfloat<A>(0.f);
-  vfloat<A> depth = vfloat<A>(std::numeric_limits<float>::infinity());
-};
-
-/// Cell-segment DVR of K packets from one part's march (CellMarch), camera
-/// rays of neighbouring pixel blocks: each packet marches as integrate_march
-/// does, but one whose lanes need a cell waits for the others, then all
-/// locate in one traversal (locate_together): the blocks enter the mesh,
-/// leave it and cross transparent stretches at about the same places and
-/// share the locate's nodes, leaves and cell setups. `live[k]`: packet k's
-/// lanes inside [t_enter[k], t_exit[k]].
-template <class A, int N, int K>
-void integrate_march_group(PreparedScene const& s, PreparedPart const& part, CellMesh<N> const& mesh,
-                           FaceNeighbours<N> const& neighbours, RayPacket<A> const (&r)[K], vmask<A> (&live)[K],
-                           vfloat<A> const (&t_enter)[K], vfloat<A> const (&t_exit)[K], DvrParams const& p,
-                           float depth_at, DvrColor<A> (&out)[K]) {
-  auto march = make_array<K>(
-      [&](int k) { return CellMarch<A, N>(part.tree, mesh, neighbours, r[k], s.windows, t_enter[k], t_exit[k]); });
-  while (true) {
-    // Every live lane is without a cell here: at the start, and after each
-    // packet has marched as far as its cells took it.
-    vmask<A> none_found[K];
-    bool any = false;
-    for (int k = 0; k < K; ++k) none_found[k] = live[k], any = any || simd::any(live[k]);
-    if (!any) return;
-    locate_together<A, N, K>(march.data(), r, none_found);
-    for (int k = 0; k < K; ++k) {
-      live[k] = live[k] && !none_found[k];
-      if (simd::any(live[k]))
-        integrate_march<A>(s, march[size_t(k)], r[k], live[k], false, t_exit[k], p, Traversal::packet, 0, out[k].r,
-                           out[k].g, out[k].b, out[k].a, depth_at, out[k].depth);
-    }
-  }
+    integrate_march_as<A, March, false>(s, m, r, inside, t_exit, p, how, threshold, cr, cg, cb, ca, depth_at, depth);
 }
 
 /// Point-sampled DVR (Rathke 2015 §7): samples at t_enter + (k + 1/2) step,

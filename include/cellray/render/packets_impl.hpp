@@ -42,11 +42,12 @@ template <class A> inline constexpr int block_w = width<A> >= 8 ? 4 : width<A> =
 template <class A> inline constexpr int block_h = width<A> / block_w<A>;
 
 /// Pixel blocks traced together (traverse_packets: isosurface hits, DVR
-/// locates), across and down: eight, about as square in pixels as blocks
-/// tile (8x4 pixels at 4 lanes, 8x8 at 8, 16x8 at 16). Eight packets
-/// share more of each node, leaf and cell setup than four: component8's
-/// isosurface at #23's view was 1.07-1.11x faster than with 2x2 blocks on
-/// SSE4.2 and AVX-512 (docs/performance.md).
+/// first locates), across and down: eight, about as square in pixels as
+/// blocks tile (8x4 pixels at 4 lanes, 8x8 at 8, 16x8 at 16). Eight
+/// packets share more of each node, leaf and cell setup than four:
+/// component8's isosurface at #23's view was 1.06-1.11x faster than with
+/// 2x2 blocks on SSE4.2 and AVX-512, about the same on AVX2
+/// (docs/performance.md).
 template <class A> inline constexpr int group_x = block_w<A> == 2 * block_h<A> ? 2 : 4;
 template <class A> inline constexpr int group_y = 8 / group_x<A>;
 

@@ -53,11 +53,12 @@ inline DvrSpan<A> dvr_span(PreparedScene const& s, RayPacket<A> const& r, vmask<
 
 /// One packet of DVR rays over its span (dvr_span): premultiplied colour
 /// and opacity, and where the opacity first reaches `depth_at` (+inf:
-/// never).
+/// never). `first_cells`: where a one-part march's rays start, located
+/// already for the lanes inside the span (dvr_first_cells), or nullptr.
 template <class A>
 void dvr_packet(PreparedScene const& s, DvrParams const& p, RenderOptions const& o, RayPacket<A> const& r,
-                DvrSpan<A> const& sp, DvrScratch<A>& scratch, vfloat<A>& cr, vfloat<A>& cg, vfloat<A>& cb,
-                vfloat<A>& ca, float depth_at, vfloat<A>& depth) {
+                DvrSpan<A> const& sp, vint<A> const* first_cells, DvrScratch<A>& scratch, vfloat<A>& cr,
+                vfloat<A>& cg, vfloat<A>& cb, vfloat<A>& ca, float depth_at, vfloat<A>& depth) {
   constexpr int W = width<A>;
   int const threshold = o.hybrid_threshold > 0 ? o.hybrid_threshold : std::max(1, W / 4);
   bool const march = s.parts.size() == 1 && s.parts[0].marches();
@@ -74,24 +75,47 @@ void dvr_packet(PreparedScene const& s, DvrParams const& p, RenderOptions const&
     PreparedPart const& pp = s.parts[0];
     pp.visit([&](auto const& mesh, auto const* neighbours) {
       CellMarch<A, std::decay_t<decltype(mesh)>::corners> m(pp.tree, mesh, *neighbours, r, s.windows, t_enter, t_exit);
-      integrate_march<A>(s, m, r, inside, true, t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
+      if (first_cells) inside = m.take_located(inside, *first_cells);
+      integrate_march<A>(s, m, r, inside, t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
     });
   } else if (s.mixed_march) {
     PartCells<4> const& t = *s.parts[0].cells_of<4>();  // prepare() checked both
     PartCells<8> const& h = *s.parts[1].cells_of<8>();
     MixedMarch<A> m(s.parts[0].tree, *t.mesh, *t.neighbours, s.parts[1].tree, *h.mesh, *h.neighbours, r, s.windows,
                     t_enter, t_exit);
-    integrate_march<A>(s, m, r, inside, true, t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
+    integrate_march<A>(s, m, r, inside, t_exit, p, o.traversal, threshold, cr, cg, cb, ca, depth_at, depth);
   } else
     integrate_segments<A>(s, r, inside, t_enter, t_exit, p, o.traversal, threshold, scratch.segments, cr, cg, cb, ca,
                           depth_at, depth);
 }
 
-/// Whether a tile's packets march in groups (integrate_march_group):
-/// cell segments marching through one part, with packet traversal.
-inline bool dvr_marches_in_groups(PreparedScene const& s, DvrParams const& p, RenderOptions const& o) {
+/// Whether dvr_first_cells applies: cell segments marching through one
+/// part, with packet traversal (the march's first locate).
+inline bool dvr_groups_first_cells(PreparedScene const& s, DvrParams const& p, RenderOptions const& o) {
   return p.mode == DvrMode::segments && o.traversal == Traversal::packet && s.parts.size() == 1 &&
          s.parts[0].marches();
+}
+
+/// The first visible cell of every lane inside the spans of K packets, in
+/// one traversal (traverse_packets; as CellMarch::locate finds it for one
+/// packet): neighbouring pixel blocks share the nodes, leaves and cell
+/// reads. -1: none.
+template <class A, int K>
+void dvr_first_cells(PreparedScene const& s, RayPacket<A> const (&r)[K], DvrSpan<A> const (&sp)[K],
+                     vint<A> (&cells)[K]) {
+  vmask<A> lanes[K];
+  for (int k = 0; k < K; ++k) lanes[k] = sp[k].inside;
+  PreparedPart const& pp = s.parts[0];
+  pp.visit([&](auto const& mesh, auto const*) {
+    constexpr int N = std::decay_t<decltype(mesh)>::corners;
+    auto query = [&](int k) {
+      return FirstCellQuery<A, N>(pp.tree, mesh, r[k], s.windows, sp[k].t_enter, sp[k].t_exit);
+    };
+    auto q = make_array<K>(query);
+    FirstCellGroup<A, N, K> group(q.data(), r, lanes);
+    traverse_packets<A, K>(pp.tree, r, lanes, group);
+    for (int k = 0; k < K; ++k) cells[k] = q[k].cell;
+  });
 }
 
 template <class A>
@@ -99,10 +123,13 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
                      Tile const& tile, FrameBuffer const& out) {
   constexpr int W = width<A>;
   DvrScratch<A> scratch(s);
-  // Eight neighbouring pixel blocks (group_x x group_y) march together,
-  // locating their cells in one traversal (integrate_march_group).
+  // Eight neighbouring pixel blocks (group_x x group_y) locate their first
+  // cells in one traversal (dvr_first_cells), then march one by one: the
+  // later locates, at steps that differ from block to block, went together
+  // too in a trial, and lost as much on one mesh as they won on another
+  // (docs/performance.md, "Tried and dropped").
   constexpr int GX = group_x<A>, GY = group_y<A>, K = GX * GY;
-  bool const grouped = dvr_marches_in_groups(s, p, o);
+  bool const grouped = dvr_groups_first_cells(s, p, o);
   for (int gy = tile.y0; gy < tile.y0 + tile.h; gy += GY * block_h<A>)
     for (int gx = tile.x0; gx < tile.x0 + tile.w; gx += GX * block_w<A>) {
       int gpx[K][W], gpy[K][W];
@@ -120,25 +147,18 @@ void render_dvr_tile(PreparedScene const& s, Camera const& cam, DvrParams const&
         gs[pk] = dvr_span<A>(s, gr[pk], simd::mask_from_bits<A>(gvalid[pk]), vfloat<A>(0.f),
                              host_depth<A>(out, gpx[pk], gpy[pk], gvalid[pk]));
       }
-      DvrColor<A> color[K];
-      if (grouped) {
-        vmask<A> live[K];
-        vfloat<A> t_enter[K], t_exit[K];
-        for (int pk = 0; pk < K; ++pk) live[pk] = gs[pk].inside, t_enter[pk] = gs[pk].t_enter, t_exit[pk] = gs[pk].t_exit;
-        PreparedPart const& pp = s.parts[0];
-        pp.visit([&](auto const& mesh, auto const* neighbours) {
-          integrate_march_group<A>(s, pp, mesh, *neighbours, gr, live, t_enter, t_exit, p, out.depth_opacity, color);
-        });
-      }
+      vint<A> first[K];
+      if (grouped) dvr_first_cells<A, K>(s, gr, gs, first);
       for (int pk = 0; pk < K; ++pk) {
         if (!gvalid[pk]) continue;
         int const(&px)[W] = gpx[pk];
         int const(&py)[W] = gpy[pk];
         uint32_t const valid = gvalid[pk];
-        DvrColor<A>& c = color[pk];
-        if (!grouped) dvr_packet<A>(s, p, o, gr[pk], gs[pk], scratch, c.r, c.g, c.b, c.a, out.depth_opacity, c.depth);
-        auto const ar = simd::to_array<A>(c.r), ag = simd::to_array<A>(c.g), ab = simd::to_array<A>(c.b),
-                   aa = simd::to_array<A>(c.a), ad = simd::to_array<A>(c.depth);
+        vfloat<A> cr, cg, cb, ca, depth;
+        dvr_packet<A>(s, p, o, gr[pk], gs[pk], grouped ? &first[pk] : nullptr, scratch, cr, cg, cb, ca,
+                      out.depth_opacity, depth);
+        auto const ar = simd::to_array<A>(cr), ag = simd::to_array<A>(cg), ab = simd::to_array<A>(cb),
+                   aa = simd::to_array<A>(ca), ad = simd::to_array<A>(depth);
         for (int l = 0; l < W; ++l) {
           if (!((valid >> l) & 1u)) continue;
           float const rest = (1.f - aa[l]) * p.background.a;
@@ -165,7 +185,7 @@ void integrate_host_rays(PreparedScene const& s, DvrParams const& p, RenderOptio
                            len2 < vfloat<A>(std::numeric_limits<float>::infinity()) && r.tmin <= r.tmax;
     vfloat<A> cr, cg, cb, ca, depth;
     DvrSpan<A> const span = dvr_span<A>(s, r, lanes, simd::max(r.tmin, vfloat<A>(0.f)), r.tmax);
-    dvr_packet<A>(s, p, o, r, span, scratch, cr, cg, cb, ca, depth_at, depth);
+    dvr_packet<A>(s, p, o, r, span, nullptr, scratch, cr, cg, cb, ca, depth_at, depth);
     auto const ar = simd::to_array<A>(cr), ag = simd::to_array<A>(cg), ab = simd::to_array<A>(cb),
                aa = simd::to_array<A>(ca), ad = simd::to_array<A>(depth);
     for (int l = 0; l < cnt; ++l) {

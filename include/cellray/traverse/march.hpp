@@ -405,22 +405,6 @@ template <class A, int N> struct CellMarch {
   }
 };
 
-/// CellMarch::locate for the marches of K packets at once (traverse_packets
-/// with FirstCellGroup): each lane finds the cell it would alone.
-/// `need[k]`: the lanes of packet k without a cell (in), those that found
-/// none, whose rays are done (out). The marches are over one tree and mesh.
-template <class A, int N, int K>
-void locate_together(CellMarch<A, N>* m, RayPacket<A> const (&r)[K], vmask<A> (&need)[K]) {
-  vmask<A> ask[K];
-  for (int k = 0; k < K; ++k) ask[k] = need[k] && !(m[k].t == m[k].located_at);  // as locate's `stuck`
-  auto q = make_array<K>([&](int k) {
-    return FirstCellQuery<A, N>(m[k].tree, m[k].mesh, r[k], m[k].windows, m[k].t, m[k].t_end, m[k].left);
-  });
-  FirstCellGroup<A, N, K> group(q.data(), r, ask);
-  traverse_packets<A, K>(m[0].tree, r, ask, group);
-  for (int k = 0; k < K; ++k) need[k] = need[k] && !m[k].take_located(ask[k], q[size_t(k)].cell);
-}
-
 /// The tet march (cell-segment DVR and AO rays of tet meshes).
 template <class A> using TetMarch = CellMarch<A, 4>;
 
