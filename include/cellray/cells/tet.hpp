@@ -288,11 +288,13 @@ CELLRAY_FORCE_INLINE CellClip<A> clip_tet_set(RayBatch<A> const& ray, CellCorner
 /// line (t may be negative). Zero-volume tets never hit. No NaN reaches
 /// t_in/t_out of a hit lane.
 ///
-/// Cost (the hottest code of both renderers): each face's plane is set up
-/// once and kept for the face values; the cell's orientation is one
-/// determinant; the face-value interpolation runs only for faces some hit
-/// lane enters or leaves through, and not at all when every lane misses
-/// (most cells a packet reaches in a BVH leaf).
+/// Cost (the hottest code of both renderers): each face's normal and
+/// distance from the origin are set up once (tet_window_setup, shared by a
+/// group of packets from one origin); the cell's orientation is one
+/// determinant; the face-value interpolation, which recomputes its face's
+/// two edges, runs only for faces some hit lane enters or leaves through,
+/// and not at all when every lane misses (most cells a packet reaches in a
+/// BVH leaf).
 ///
 /// `exit_face` (optional): the face each hit lane leaves through, as an
 /// index f into the corners (the face opposite corner f; on a tie at an
