@@ -1,5 +1,5 @@
-// GatherPairsProbe (tests/support/gather_probe.hpp) for one ISA: compiled
-// once per ISA with that ISA's flags.
+// GatherPairsProbe and GatherXyzProbe (tests/support/gather_probe.hpp) for
+// one ISA: compiled once per ISA with that ISA's flags.
 
 #include <cellray/simd/batch.hpp>
 
@@ -18,5 +18,18 @@ void GatherPairsProbe<Arch>::run(float const* pairs, int32_t const* idx, int n, 
 }
 
 CELLRAY_INSTANTIATE_ENTRY(GatherPairsProbe)
+
+template <class Arch>
+void GatherXyzProbe<Arch>::run(float const* xyz, int32_t vertex_count, int32_t const* idx, int n, float* x, float* y,
+                               float* z) {
+  constexpr int W = width<Arch>;
+  for (int k = 0; k < n; k += W) {
+    vfloat<Arch> a, b, c;
+    simd::gather_xyz(xyz, vint<Arch>::load_unaligned(idx + k) * vint<Arch>(3), 3 * (vertex_count - 1), a, b, c);
+    a.store_unaligned(x + k), b.store_unaligned(y + k), c.store_unaligned(z + k);
+  }
+}
+
+CELLRAY_INSTANTIATE_ENTRY(GatherXyzProbe)
 
 }  // namespace cellray::test

@@ -1,6 +1,8 @@
 // The transfer-function tables' pair gather (simd::gather_pairs, PairTable
 // in render/render_common.hpp): every ISA's lanes read their own entry and
-// the next, in lane order, as the linear lookups of DVR need.
+// the next, in lane order, as the linear lookups of DVR need. The points'
+// gather (simd::gather_xyz, the cells' corners): each lane its own point,
+// and nothing past the array's end (sanitizer builds).
 
 #include <catch2/catch.hpp>
 
@@ -44,6 +46,32 @@ TEST_CASE("gather_pairs: each lane reads its table entry and the next, in lane o
   // The scalar lookup reads the same pairs: entry i, f of the way to i + 1.
   CHECK(table.lerp(10, 0.5f) == 0.25f + 0.5f * 10.5f);
   CHECK(table.lerp(size - 1, 0.75f) == t[size - 1]);
+}
+
+TEST_CASE("gather_xyz: each lane reads its own point, and the last point without reading past the array",
+          "[simd][isa]") {
+  constexpr int32_t count = 1000;
+  std::vector<float> xyz(3 * size_t(count));  // exactly the points: a read past the end is out of bounds
+  for (size_t i = 0; i < xyz.size(); ++i) xyz[i] = 0.5f + float(i);  // distinct, exact
+  // Batches of 16 lanes: far-apart and equal points, neighbours, and every
+  // fourth batch with the last point in one lane (the 16-byte loads would
+  // read 4 bytes past it: the gathers take that batch).
+  std::vector<int32_t> idx;
+  for (int k = 0; k < 64 * 16; ++k) {
+    int const batch = k / 16, lane = k % 16;
+    int32_t const pattern[4] = {(37 * k) % (count - 1), k % 3, (count - 2) - k % (count - 1),
+                                lane == batch % 16 ? count - 1 : (11 * k) % (count - 1)};
+    idx.push_back(pattern[batch % 4]);
+  }
+  std::vector<float> x(idx.size()), y(idx.size()), z(idx.size());
+  dispatch<test::GatherXyzProbe>(test::isa(), xyz.data(), count, idx.data(), int(idx.size()), x.data(), y.data(),
+                                 z.data());
+  int wrong = 0;
+  for (size_t k = 0; k < idx.size(); ++k) {
+    size_t const i = 3 * size_t(idx[k]);
+    wrong += x[k] != xyz[i] || y[k] != xyz[i + 1] || z[k] != xyz[i + 2];
+  }
+  CHECK(wrong == 0);
 }
 
 }  // namespace test_simd_gather_pairs

@@ -1,6 +1,7 @@
 #pragma once
-// Test-only entry point: simd::gather_pairs (simd/batch.hpp) per ISA
-// (tests/isa_simd_gather_pairs.cpp instantiates it).
+// Test-only entry points: simd::gather_pairs and simd::gather_xyz
+// (simd/batch.hpp) per ISA (tests/isa_simd_gather_pairs.cpp instantiates
+// them).
 
 #include <cstdint>
 
@@ -14,5 +15,13 @@ template <class Arch> struct GatherPairsProbe {
   static void run(float const* pairs, int32_t const* idx, int n, float* first, float* second);
 };
 CELLRAY_EXTERN_ENTRY(GatherPairsProbe)
+
+/// x[k], y[k], z[k] = the point gather_xyz reads for vertex idx[k] of the
+/// `vertex_count` points at `xyz`, a batch of the ISA's width at a time; n
+/// a multiple of 16.
+template <class Arch> struct GatherXyzProbe {
+  static void run(float const* xyz, int32_t vertex_count, int32_t const* idx, int n, float* x, float* y, float* z);
+};
+CELLRAY_EXTERN_ENTRY(GatherXyzProbe)
 
 }  // namespace cellray::test

@@ -252,12 +252,11 @@ CELLRAY_FORCE_INLINE void gather_corners_into(CellCorners<A, N>& c, CellMesh<N> 
     // sort_tet_corners' network on the ids alone (here id = vertex index),
     // before the loads: the same order, without permuting 5 x 4 vectors.
     if constexpr (N == 4) isa_detail::sort_tet_ids<A>(vs);
+    int32_t const last = int32_t(3 * (mesh.vertex_count() - 1));
     for (int i = 0; i < N; ++i) {
       vint<A> const v = vs[i];
       vint<A> const v3 = v * vint<A>(3);
-      c.x[i] = simd::gather(xyz, v3);
-      c.y[i] = simd::gather(xyz + 1, v3);
-      c.z[i] = simd::gather(xyz + 2, v3);
+      simd::gather_xyz(xyz, v3, last, c.x[i], c.y[i], c.z[i]);
       c.s[i] = val ? simd::finite_or_nan(simd::gather(val, v)) : vfloat<A>(std::numeric_limits<float>::quiet_NaN());
       c.id[i] = v;
     }

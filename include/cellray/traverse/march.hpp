@@ -241,8 +241,9 @@ template <class A, int N> struct CellMarch {
   bool last_valid = false;  ///< tets: `last` holds each lane's last cell, and follow
   /// next_corners applies: a type that shares a face's corners with its
   /// neighbour (tets), 32-bit indices whose ids are the corners' keys.
+  // next_corners' offsets (3 x vertex) in 31 bits, as gather_corners' are.
   bool const reuse_ok = CellOps<A, N>::march_reuses_corners && mesh.has_32bit_indices() &&
-                        mesh.vertex_count() <= (uint64_t(1) << 31);
+                        mesh.vertex_count() * 3 < uint64_t(std::numeric_limits<int32_t>::max());
 
   /// What a step found per lane: the cell's clip and the piece [a, e] of it
   /// the ray has not integrated yet; `visible` where that piece may have
@@ -377,13 +378,14 @@ template <class A, int N> struct CellMarch {
     // mask: the gathers' addresses do not wait for the lanes), and so would
     // neighbours that do not fit the mesh (FaceNeighbours::fits samples it):
     // vertex 0 there, wrong pixels at worst, never a read outside the arrays.
-    vint<A> const last_vertex(int32_t(mesh.vertex_count() - 1));  // reuse_ok: < 2^31 vertices
+    vint<A> const last_vertex(int32_t(mesh.vertex_count() - 1));  // reuse_ok: 3 x vertex < 2^31
     vmaski<A> const readable = fresh_id >= vint<A>(0) && fresh_id <= last_vertex;
     fresh_id = simd::select(readable, fresh_id, vint<A>(0));
     float const* xyz = mesh.positions();
     float const* val = mesh.values();
     vint<A> const v3 = fresh_id * vint<A>(3);
-    vfloat<A> const fx = simd::gather(xyz, v3), fy = simd::gather(xyz + 1, v3), fz = simd::gather(xyz + 2, v3);
+    vfloat<A> fx, fy, fz;
+    simd::gather_xyz(xyz, v3, int32_t(3 * (mesh.vertex_count() - 1)), fx, fy, fz);
     vfloat<A> const fs =
         val ? simd::finite_or_nan(simd::gather(val, fresh_id)) : vfloat<A>(std::numeric_limits<float>::quiet_NaN());
     // before[k]: the shared corner k sorts before the fresh one (they are
