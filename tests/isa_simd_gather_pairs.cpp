@@ -1,5 +1,5 @@
-// GatherPairsProbe and GatherXyzProbe (tests/support/gather_probe.hpp) for
-// one ISA: compiled once per ISA with that ISA's flags.
+// GatherPairsProbe, GatherXyzProbe and GatherQuadsProbe
+// (tests/support/gather_probe.hpp) for one ISA: compiled once per ISA with that ISA's flags.
 
 #include <cellray/simd/batch.hpp>
 
@@ -31,5 +31,19 @@ void GatherXyzProbe<Arch>::run(float const* xyz, int32_t vertex_count, int32_t c
 }
 
 CELLRAY_INSTANTIATE_ENTRY(GatherXyzProbe)
+
+template <class Arch> void GatherQuadsProbe<Arch>::run(int32_t const* rows, int32_t const* idx, int n, int32_t* out) {
+  constexpr int W = width<Arch>;
+  for (int k = 0; k < n; k += W) {
+    vint<Arch> q[4];
+    simd::gather_quads(rows, vint<Arch>::load_unaligned(idx + k) * vint<Arch>(4), q);
+    alignas(64) int32_t w[4][W];
+    for (int j = 0; j < 4; ++j) q[j].store_aligned(w[j]);
+    for (int l = 0; l < W; ++l)
+      for (int j = 0; j < 4; ++j) out[4 * (k + l) + j] = w[j][l];
+  }
+}
+
+CELLRAY_INSTANTIATE_ENTRY(GatherQuadsProbe)
 
 }  // namespace cellray::test

@@ -2,7 +2,8 @@
 // in render/render_common.hpp): every ISA's lanes read their own entry and
 // the next, in lane order, as the linear lookups of DVR need. The points'
 // gather (simd::gather_xyz, the cells' corners): each lane its own point,
-// and nothing past the array's end (sanitizer builds).
+// and nothing past the array's end (sanitizer builds); the cells' id rows
+// (simd::gather_quads): each lane its own four words, in order.
 
 #include <catch2/catch.hpp>
 
@@ -71,6 +72,23 @@ TEST_CASE("gather_xyz: each lane reads its own point, and the last point without
     size_t const i = 3 * size_t(idx[k]);
     wrong += x[k] != xyz[i] || y[k] != xyz[i + 1] || z[k] != xyz[i + 2];
   }
+  CHECK(wrong == 0);
+}
+
+TEST_CASE("gather_quads: each lane reads its own row of four words, in order", "[simd][isa]") {
+  constexpr int32_t rows = 500;
+  std::vector<int32_t> words(4 * size_t(rows));  // exactly the rows: the last row's load ends at the end
+  for (size_t i = 0; i < words.size(); ++i) words[i] = int32_t(7 * i + 3);  // distinct
+  std::vector<int32_t> idx;
+  for (int k = 0; k < 64 * 16; ++k) {
+    int32_t const pattern[4] = {(37 * k) % rows, rows - 1, k % 5, (rows - 1) - k % rows};
+    idx.push_back(pattern[(k / 16) % 4]);
+  }
+  std::vector<int32_t> out(4 * idx.size());
+  dispatch<test::GatherQuadsProbe>(test::isa(), words.data(), idx.data(), int(idx.size()), out.data());
+  int wrong = 0;
+  for (size_t k = 0; k < idx.size(); ++k)
+    for (size_t j = 0; j < 4; ++j) wrong += out[4 * k + j] != words[4 * size_t(idx[k]) + j];
   CHECK(wrong == 0);
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-// Test-only entry points: simd::gather_pairs and simd::gather_xyz
+// Test-only entry points: simd::gather_pairs, gather_xyz and gather_quads
 // (simd/batch.hpp) per ISA (tests/isa_simd_gather_pairs.cpp instantiates
 // them).
 
@@ -23,5 +23,12 @@ template <class Arch> struct GatherXyzProbe {
   static void run(float const* xyz, int32_t vertex_count, int32_t const* idx, int n, float* x, float* y, float* z);
 };
 CELLRAY_EXTERN_ENTRY(GatherXyzProbe)
+
+/// out[4 k + j] = word j of the four gather_quads reads at rows + 4 idx[k]
+/// (32-bit integers), a batch of the ISA's width at a time; n a multiple of 16.
+template <class Arch> struct GatherQuadsProbe {
+  static void run(int32_t const* rows, int32_t const* idx, int n, int32_t* out);
+};
+CELLRAY_EXTERN_ENTRY(GatherQuadsProbe)
 
 }  // namespace cellray::test

@@ -247,8 +247,14 @@ CELLRAY_FORCE_INLINE void gather_corners_into(CellCorners<A, N>& c, CellMesh<N> 
   constexpr uint64_t lim = uint64_t(std::numeric_limits<int32_t>::max());
   if (mesh.has_32bit_indices() && mesh.cell_count() * N < lim && mesh.vertex_count() * 3 < lim) {
     auto const* idx = reinterpret_cast<int32_t const*>(mesh.indices32());
+    // A cell's ids are one row: four at a time by 16-byte loads and a
+    // transpose (gather_quads), not a gather each.
     vint<A> vs[N];
-    for (int i = 0; i < N; ++i) vs[i] = simd::gather(idx, cell * vint<A>(N) + vint<A>(i));
+    for (int h = 0; h < N; h += 4) {
+      vint<A> q[4];
+      simd::gather_quads(idx, cell * vint<A>(N) + vint<A>(h), q);
+      for (int k = 0; k < 4; ++k) vs[h + k] = q[k];
+    }
     // sort_tet_corners' network on the ids alone (here id = vertex index),
     // before the loads: the same order, without permuting 5 x 4 vectors.
     if constexpr (N == 4) isa_detail::sort_tet_ids<A>(vs);

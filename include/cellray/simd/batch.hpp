@@ -282,65 +282,75 @@ inline void gather_pairs(float const* pairs, xsimd::batch<int32_t, A> const& idx
   }
 }
 
+/// Four consecutive 32-bit words per lane, lane i's at `base + at[i]`, into
+/// out[0..3] (word k of every lane in out[k]): one 16-byte load a lane and
+/// a transpose, where 16-lane gathers of the four cost about twice as much
+/// on the Zen 5 (docs/performance.md). Every lane's four words must be
+/// readable.
+template <class A>
+inline void gather_quads(float const* base, xsimd::batch<int32_t, A> const& at, xsimd::batch<float, A> (&out)[4]) noexcept {
+  if constexpr (is_avx512<A>) {
+    alignas(64) int32_t o[16];
+    _mm512_store_si512(o, __m512i(at));
+    auto row = [&](int a, int b, int c, int d) {  // lanes a, b, c, d in the four 128-bit blocks
+      __m512 r = _mm512_castps128_ps512(_mm_loadu_ps(base + o[a]));
+      r = _mm512_insertf32x4(r, _mm_loadu_ps(base + o[b]), 1);
+      r = _mm512_insertf32x4(r, _mm_loadu_ps(base + o[c]), 2);
+      return _mm512_insertf32x4(r, _mm_loadu_ps(base + o[d]), 3);
+    };
+    __m512 const r0 = row(0, 4, 8, 12), r1 = row(1, 5, 9, 13), r2 = row(2, 6, 10, 14), r3 = row(3, 7, 11, 15);
+    // Per 128-bit block: a0 a1 b0 b1, c0 c1 d0 d1, a2 a3 b2 b3, c2 c3 d2 d3.
+    __m512d const t0 = _mm512_castps_pd(_mm512_unpacklo_ps(r0, r1)), t1 = _mm512_castps_pd(_mm512_unpackhi_ps(r0, r1));
+    __m512d const t2 = _mm512_castps_pd(_mm512_unpacklo_ps(r2, r3)), t3 = _mm512_castps_pd(_mm512_unpackhi_ps(r2, r3));
+    out[0] = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2)), out[1] = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
+    out[2] = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3)), out[3] = _mm512_castpd_ps(_mm512_unpackhi_pd(t1, t3));
+  } else if constexpr (is_avx2<A>) {
+    alignas(32) int32_t o[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(o), __m256i(at));
+    auto row = [&](int a, int b) {
+      return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(base + o[a])), _mm_loadu_ps(base + o[b]), 1);
+    };
+    __m256 const r0 = row(0, 4), r1 = row(1, 5), r2 = row(2, 6), r3 = row(3, 7);
+    __m256d const t0 = _mm256_castps_pd(_mm256_unpacklo_ps(r0, r1)), t1 = _mm256_castps_pd(_mm256_unpackhi_ps(r0, r1));
+    __m256d const t2 = _mm256_castps_pd(_mm256_unpacklo_ps(r2, r3)), t3 = _mm256_castps_pd(_mm256_unpackhi_ps(r2, r3));
+    out[0] = _mm256_castpd_ps(_mm256_unpacklo_pd(t0, t2)), out[1] = _mm256_castpd_ps(_mm256_unpackhi_pd(t0, t2));
+    out[2] = _mm256_castpd_ps(_mm256_unpacklo_pd(t1, t3)), out[3] = _mm256_castpd_ps(_mm256_unpackhi_pd(t1, t3));
+  } else {
+    alignas(16) int32_t o[4];
+    _mm_store_si128(reinterpret_cast<__m128i*>(o), __m128i(at));
+    __m128 r0 = _mm_loadu_ps(base + o[0]), r1 = _mm_loadu_ps(base + o[1]), r2 = _mm_loadu_ps(base + o[2]),
+           r3 = _mm_loadu_ps(base + o[3]);
+    _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
+    out[0] = r0, out[1] = r1, out[2] = r2, out[3] = r3;
+  }
+}
+inline void gather_quads(int32_t const* base, int32_t at, int32_t (&out)[4]) noexcept {
+  for (int k = 0; k < 4; ++k) out[k] = base[at + k];
+}
+/// gather_quads of 32-bit integers (a cell's vertex ids).
+template <class A>
+inline void gather_quads(int32_t const* base, xsimd::batch<int32_t, A> const& at,
+                         xsimd::batch<int32_t, A> (&out)[4]) noexcept {
+  xsimd::batch<float, A> f[4];
+  gather_quads<A>(reinterpret_cast<float const*>(base), at, f);
+  for (int k = 0; k < 4; ++k) out[k] = xsimd::bitwise_cast<xsimd::batch<int32_t, A>>(f[k]);
+}
+
 /// Points stored as x y z triples: lane i's point at `xyz + at[i]` into x, y
 /// and z. Where every lane's point has another float after it (at[i] <
-/// `last`, the offset of the array's last point), each lane's triple is one
-/// 16-byte load and the vectors a transpose: three 16-lane gathers cost
-/// about twice as much on the Zen 5 (docs/performance.md); else gathers.
-/// Every offset must be valid, as for gather.
+/// `last`, the offset of the array's last point), gather_quads' loads and
+/// transpose; else gathers. Every offset must be valid, as for gather.
 inline void gather_xyz(float const* xyz, int32_t at, int32_t, float& x, float& y, float& z) noexcept {
   x = xyz[at], y = xyz[at + 1], z = xyz[at + 2];
 }
 template <class A>
 inline void gather_xyz(float const* xyz, xsimd::batch<int32_t, A> const& at, int32_t last, xsimd::batch<float, A>& x,
                        xsimd::batch<float, A>& y, xsimd::batch<float, A>& z) noexcept {
-  if constexpr (is_avx512<A>) {
-    __m512i const i = at;
-    if (_mm512_cmpge_epi32_mask(i, _mm512_set1_epi32(last)) == 0) {
-      alignas(64) int32_t o[16];
-      _mm512_store_si512(o, i);
-      auto row = [&](int a, int b, int c, int d) {  // lanes a, b, c, d in the four 128-bit blocks
-        __m512 r = _mm512_castps128_ps512(_mm_loadu_ps(xyz + o[a]));
-        r = _mm512_insertf32x4(r, _mm_loadu_ps(xyz + o[b]), 1);
-        r = _mm512_insertf32x4(r, _mm_loadu_ps(xyz + o[c]), 2);
-        return _mm512_insertf32x4(r, _mm_loadu_ps(xyz + o[d]), 3);
-      };
-      __m512 const r0 = row(0, 4, 8, 12), r1 = row(1, 5, 9, 13), r2 = row(2, 6, 10, 14), r3 = row(3, 7, 11, 15);
-      // Per 128-bit block: x0 x1 y0 y1, z0 z1 w0 w1, x2 x3 y2 y3, z2 z3 w2 w3.
-      __m512d const t0 = _mm512_castps_pd(_mm512_unpacklo_ps(r0, r1)), t1 = _mm512_castps_pd(_mm512_unpackhi_ps(r0, r1));
-      __m512d const t2 = _mm512_castps_pd(_mm512_unpacklo_ps(r2, r3)), t3 = _mm512_castps_pd(_mm512_unpackhi_ps(r2, r3));
-      x = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2));
-      y = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
-      z = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
-      return;
-    }
-  } else if constexpr (is_avx2<A>) {
-    __m256i const i = at;
-    if (_mm256_movemask_epi8(_mm256_cmpgt_epi32(i, _mm256_set1_epi32(last - 1))) == 0) {
-      alignas(32) int32_t o[8];
-      _mm256_store_si256(reinterpret_cast<__m256i*>(o), i);
-      auto row = [&](int a, int b) {
-        return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(xyz + o[a])), _mm_loadu_ps(xyz + o[b]), 1);
-      };
-      __m256 const r0 = row(0, 4), r1 = row(1, 5), r2 = row(2, 6), r3 = row(3, 7);
-      __m256d const t0 = _mm256_castps_pd(_mm256_unpacklo_ps(r0, r1)), t1 = _mm256_castps_pd(_mm256_unpackhi_ps(r0, r1));
-      __m256d const t2 = _mm256_castps_pd(_mm256_unpacklo_ps(r2, r3)), t3 = _mm256_castps_pd(_mm256_unpackhi_ps(r2, r3));
-      x = _mm256_castpd_ps(_mm256_unpacklo_pd(t0, t2));
-      y = _mm256_castpd_ps(_mm256_unpackhi_pd(t0, t2));
-      z = _mm256_castpd_ps(_mm256_unpacklo_pd(t1, t3));
-      return;
-    }
-  } else {
-    __m128i const i = at;
-    if (_mm_movemask_epi8(_mm_cmpgt_epi32(i, _mm_set1_epi32(last - 1))) == 0) {
-      alignas(16) int32_t o[4];
-      _mm_store_si128(reinterpret_cast<__m128i*>(o), i);
-      __m128 r0 = _mm_loadu_ps(xyz + o[0]), r1 = _mm_loadu_ps(xyz + o[1]), r2 = _mm_loadu_ps(xyz + o[2]),
-             r3 = _mm_loadu_ps(xyz + o[3]);
-      _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
-      x = r0, y = r1, z = r2;
-      return;
-    }
+  if (xsimd::none(at >= xsimd::batch<int32_t, A>(last))) {
+    xsimd::batch<float, A> q[4];
+    gather_quads<A>(xyz, at, q);
+    x = q[0], y = q[1], z = q[2];
+    return;
   }
   x = gather(xyz, at), y = gather(xyz + 1, at), z = gather(xyz + 2, at);
 }

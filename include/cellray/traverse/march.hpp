@@ -361,8 +361,9 @@ template <class A, int N> struct CellMarch {
     CellCorners<A, 4>& c = last;
     vint<A> const& cl = ahead;  // == cell in `lanes`
     auto const* idx = reinterpret_cast<int32_t const*>(mesh.indices32());
-    vint<A> fresh_id(0);
-    for (int i = 0; i < 4; ++i) fresh_id = fresh_id ^ simd::gather(idx, cl * vint<A>(4) + vint<A>(i));
+    vint<A> ids[4];
+    simd::gather_quads(idx, cl * vint<A>(4), ids);  // the cell's row: one 16-byte load a lane
+    vint<A> fresh_id = (ids[0] ^ ids[1]) ^ (ids[2] ^ ids[3]);
     // The shared face: the last corners but the one opposite it.
     vint<A> sid[3];
     vfloat<A> sx[3], sy[3], sz[3], ss[3];
