@@ -240,8 +240,8 @@ template <class A, int N> struct CellMarch {
   vfloat<A> const inv_dd = vfloat<A>(1.f) / dot(ray_batch(r).dir(), ray_batch(r).dir());
   bool last_valid = false;  ///< tets: `last` holds each lane's last cell, and follow
   /// next_corners applies: a type that shares a face's corners with its
-  /// neighbour (tets), 32-bit indices whose ids are the corners' keys.
-  // next_corners' offsets (3 x vertex) in 31 bits, as gather_corners' are.
+  /// neighbour (tets), 32-bit indices whose ids are the corners' keys, and
+  /// offsets 3 x vertex in 31 bits (as gather_corners needs them).
   bool const reuse_ok = CellOps<A, N>::march_reuses_corners && mesh.has_32bit_indices() &&
                         mesh.vertex_count() * 3 < uint64_t(std::numeric_limits<int32_t>::max());
 
