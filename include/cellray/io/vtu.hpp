@@ -6,11 +6,13 @@
 // XML parser (it is not XML): the document is cut at the '_' marker.
 // Needs pugixml and zlib at link time (CMake: pugixml::pugixml ZLIB::ZLIB).
 
+#include <atomic>
 #include <cassert>
 #include <exception>
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <set>
 #include <string>
 #include <string_view>
@@ -98,6 +100,28 @@ inline uint64_t base64_decode_plain(unsigned char const* text, uint64_t q, unsig
   return total;
 }
 
+/// Decodes the 4-symbol groups [g0, g1) of the base64 text at `text` into
+/// `out` (3 bytes a group) when all are plain symbols, except that the
+/// last may end in padding when `may_pad` ("xxx=": 2 bytes, "xx==": 1).
+/// Returns the bytes
+/// written, or -1 when a group holds anything else (the careful path, which
+/// reads whitespace and reports errors, then takes over).
+inline int64_t base64_decode_groups(unsigned char const* text, uint64_t g0, uint64_t g1, bool may_pad, unsigned char* out) {
+  uint64_t const q = g1 - g0;
+  uint64_t const done = base64_decode_plain_serial(text + 4 * g0, q, out);
+  if (done == q) return int64_t(3 * q);
+  if (done + 1 != q || !may_pad) return -1;
+  unsigned char const* const g = text + 4 * (g1 - 1);
+  unsigned const a = base64_table.cls[g[0]], b = base64_table.cls[g[1]], c = base64_table.cls[g[2]],
+                 d = base64_table.cls[g[3]];
+  if (a >= 64 || b >= 64 || d != 64 || (c >= 64 && c != 64)) return -1;
+  unsigned char* const o = out + 3 * done;
+  o[0] = static_cast<unsigned char>((a << 2) | (b >> 4));
+  if (c == 64) return int64_t(3 * done + 1);
+  o[1] = static_cast<unsigned char>(((b & 15) << 4) | (c >> 2));
+  return int64_t(3 * done + 2);
+}
+
 /// Bytes of a DataArray payload: raw bytes of the file, or base64 text in it.
 /// The base64 decoder accepts several padded streams back to back, because
 /// VTK encodes a compressed array's header and its blocks separately.
@@ -111,6 +135,24 @@ class ByteStream {
   uint64_t max_left() const { return base64_ ? (end_ - pos_) / 4 * 3 + uint64_t(npend_ - ipend_) : end_ - pos_; }
   uint64_t offset() const { return pos_; }
   bool base64() const { return base64_; }
+
+  /// Base64 only: the text from here when the next byte starts a 4-symbol
+  /// group (none is pending from the last), and the groups that fit before
+  /// the end; byte k from here then lies in group k / 3.
+  unsigned char const* group_text(uint64_t& groups) const {
+    groups = (end_ - pos_) / 4;
+    if (!base64_ || ipend_ < npend_) return nullptr;
+    return reinterpret_cast<unsigned char const*>(src_.bytes.data()) + pos_;
+  }
+  /// Moves past `n` bytes that base64_decode_groups decoded from
+  /// group_text(), leaving the stream as read(n) would.
+  void skip_decoded(uint64_t n) {
+    pos_ += 4 * (n / 3);
+    if (n % 3) {
+      quantum();
+      ipend_ = int(n % 3);
+    }
+  }
 
   /// The next `n` raw bytes, in place (raw data only).
   unsigned char const* raw(uint64_t n) {
@@ -722,6 +764,8 @@ class VtuParser {
   /// inflate, unless reading an earlier block's bytes failed first.
   NumArray inflate_blocks(ByteStream& s, NumType t, std::vector<uint64_t> const& csize, uint64_t ctotal, uint64_t block,
                           uint64_t last_size, uint64_t total, std::string const& what) {
+    if (s.base64())
+      if (auto a = inflate_blocks_in_place(s, t, csize, ctotal, block, last_size, total, what)) return std::move(*a);
     uint64_t const nblocks = csize.size();
     std::vector<unsigned char const*> z(nblocks);
     std::vector<uint64_t> at(nblocks);
@@ -753,6 +797,48 @@ class VtuParser {
     for (uint64_t i = 0; i < nread; ++i)
       if (!err[i].empty()) fail_block(at[i], what, i, nblocks, i + 1 == nblocks ? last_size : block, err[i]);
     if (read_failed) std::rethrow_exception(read_failed);
+    return NumArray::owning_bytes(t, total / num_size(t), std::move(out), swap_);
+  }
+
+  /// inflate_blocks for base64 text that is one run of plain symbols (as
+  /// VTK writes it): each task decodes its own blocks from the file's text
+  /// into a small buffer and inflates them, instead of one thread decoding
+  /// every block into a buffer of all the compressed bytes first (its fresh
+  /// pages were a quarter of a zlib .vtu's load). Empty when a block's text
+  /// is not plain (line breaks, streams back to back); inflate_blocks'
+  /// careful path then reads it all again and reports what it finds.
+  std::optional<NumArray> inflate_blocks_in_place(ByteStream& s, NumType t, std::vector<uint64_t> const& csize,
+                                                  uint64_t ctotal, uint64_t block, uint64_t last_size, uint64_t total,
+                                                  std::string const& what) {
+    uint64_t groups = 0;
+    unsigned char const* const text = s.group_text(groups);
+    uint64_t const nblocks = csize.size();
+    if (!text || (ctotal + 2) / 3 > groups) return std::nullopt;
+    std::vector<uint64_t> first(nblocks + 1, 0);  // compressed bytes before each block
+    for (uint64_t i = 0; i < nblocks; ++i) first[i + 1] = first[i] + csize[i];
+    cellray::detail::LargeVector<unsigned char> out;
+    out.resize(size_t(total));
+    std::vector<std::string> err(nblocks);
+    std::atomic<bool> plain{true};
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nblocks, 1), [&](tbb::blocked_range<uint64_t> const& r) {
+      std::vector<unsigned char> z;
+      for (uint64_t i = r.begin(); i < r.end() && plain.load(std::memory_order_relaxed); ++i) {
+        uint64_t const g0 = first[i] / 3, g1 = (first[i + 1] + 2) / 3;
+        z.resize(3 * (g1 - g0));
+        int64_t const got = base64_decode_groups(text, g0, g1, i + 1 == nblocks, z.data());
+        uint64_t const skip = first[i] - 3 * g0;
+        if (got < 0 || uint64_t(got) < skip + csize[i]) {
+          plain.store(false, std::memory_order_relaxed);
+          return;
+        }
+        err[i] = inflate_into(z.data() + skip, csize[i], i + 1 == nblocks ? last_size : block, out.data() + i * block);
+      }
+    });
+    if (!plain.load()) return std::nullopt;
+    for (uint64_t i = 0; i < nblocks; ++i)  // named where the serial reader stood when it began the block
+      if (!err[i].empty())
+        fail_block(s.offset() + 4 * ((first[i] + 2) / 3), what, i, nblocks, i + 1 == nblocks ? last_size : block, err[i]);
+    s.skip_decoded(ctotal);
     return NumArray::owning_bytes(t, total / num_size(t), std::move(out), swap_);
   }
 
