@@ -221,6 +221,10 @@ struct NumArray {
   /// large ones are huge pages (memory.hpp), so a decoded array costs no
   /// zeroing pass and few first-write faults.
   cellray::detail::LargeVector<unsigned char> owned;
+  /// Decoded Float32 values in the host's order, in the container a grid
+  /// keeps them in, so that a reader can adopt them (take_floats) instead of
+  /// converting them into fresh memory.
+  std::vector<float> floats;
 
   NumArray() = default;
   NumArray(NumArray&&) = default;
@@ -257,6 +261,26 @@ struct NumArray {
     a.data = a.owned.data();
     a.swap = swap;
     return a;
+  }
+
+  /// Float32 values owned as a std::vector<float>.
+  static NumArray owning_floats(std::vector<float> v) {
+    NumArray a;
+    a.type = NumType::f32;
+    a.count = v.size();
+    a.floats = std::move(v);
+    a.data = reinterpret_cast<unsigned char const*>(a.floats.data());
+    return a;
+  }
+  /// Moves the values out as floats when they are owned as such and number
+  /// `n`, leaving this array empty; false (and nothing moved) otherwise.
+  bool take_floats(uint64_t n, std::vector<float>& out) {
+    if (floats.empty() || floats.size() != n || count != n) return false;
+    out = std::move(floats);
+    floats = {};
+    count = 0;
+    data = nullptr;
+    return true;
   }
 
   double as_double(uint64_t i) const {
@@ -796,6 +820,16 @@ inline void add_point_array(UnstructuredGrid& grid, std::string name, NumArray c
   add_point_array(grid, std::move(name), std::move(values), ncomp);
 }
 
+/// add_point_array for an array the caller gives up: Float32 values owned
+/// as floats (NumArray::take_floats) become the point array as they are.
+inline void add_point_array(UnstructuredGrid& grid, std::string name, NumArray&& a, int ncomp, uint64_t spare = 0) {
+  std::vector<float> values;
+  if (ncomp == 1 && spare == 0 && !grid.point_array(name) && a.take_floats(grid.vertex_count(), values))
+    add_point_array(grid, std::move(name), std::move(values), ncomp);
+  else
+    add_point_array(grid, std::move(name), static_cast<NumArray const&>(a), ncomp, spare);
+}
+
 /// Adds a cell array with one tuple per file cell, split by `kinds`; the
 /// values of polyhedra (kind 3) go to `polyhedra_values` when given, and
 /// the tet and hex values get room for `spare_tets` / `spare_hexes` more.
@@ -829,7 +863,38 @@ inline void add_cell_array(UnstructuredGrid& grid, std::string name, NumArray co
   grid.cell_arrays.push_back(std::move(c));
 }
 
+/// add_cell_array for an array the caller gives up: Float32 values owned as
+/// floats become the values of a mesh of one kind as they are.
+inline void add_cell_array(UnstructuredGrid& grid, std::string name, NumArray&& a, int ncomp, CellKinds const& kinds,
+                           std::vector<float>* polyhedra_values = nullptr, uint64_t spare_tets = 0,
+                           uint64_t spare_hexes = 0) {
+  bool const one_kind = grid.tet_count() == kinds.size() || grid.hex_count() == kinds.size();
+  if (ncomp == 1 && one_kind && spare_tets == 0 && spare_hexes == 0 && !grid.cell_array(name)) {
+    CellArray c;
+    std::vector<float>& out = grid.tet_count() == kinds.size() ? c.tet_values : c.hex_values;
+    if (a.take_floats(kinds.size(), out)) {
+      c.name = std::move(name);
+      c.components = ncomp;
+      grid.report.arrays_read.push_back(describe_array("cell", c.name, ncomp));
+      grid.cell_arrays.push_back(std::move(c));
+      return;
+    }
+  }
+  add_cell_array(grid, std::move(name), static_cast<NumArray const&>(a), ncomp, kinds, polyhedra_values, spare_tets,
+                 spare_hexes);
+}
+
 /// Positions from a 3-component array of `npoints` tuples.
+inline void set_positions(UnstructuredGrid& grid, NumArray const& a, uint64_t npoints);
+
+/// set_positions for an array the caller gives up: Float32 values owned as
+/// floats become the positions as they are, unless room was reserved for
+/// points a reader adds (polyhedra's centres), which adopting would drop.
+inline void set_positions(UnstructuredGrid& grid, NumArray&& a, uint64_t npoints) {
+  if (grid.xyz.capacity() <= 3 * npoints && a.take_floats(3 * npoints, grid.xyz)) return;
+  set_positions(grid, static_cast<NumArray const&>(a), npoints);
+}
+
 inline void set_positions(UnstructuredGrid& grid, NumArray const& a, uint64_t npoints) {
   cellray::detail::resize_zeroed(grid.xyz, 3 * npoints);
   float* const out = grid.xyz.data();

@@ -451,7 +451,7 @@ class VtuParser {
     if (components(pts) != 3) src_.fail_line(offset(pts), "Points must have NumberOfComponents=\"3\"");
     uint64_t n3 = 0;
     checked_mul(np, 3, n3);
-    NumArray const xyz = decode(pts, n3, "Points");
+    NumArray xyz = decode(pts, n3, "Points");
 
     pugi::xml_node const cells = piece.child("Cells");
     if (!cells) src_.fail_line(offset(piece), "no Cells element");
@@ -502,7 +502,7 @@ class VtuParser {
           return std::pair<uint64_t, uint64_t>(c ? uint64_t(offsets.as_int(c - 1)) : 0, uint64_t(offsets.as_int(c)));
         },
         np, opts_, grid, where, /*polyhedra=*/true);
-    set_positions(grid, xyz, np);
+    set_positions(grid, std::move(xyz), np);
 
     for (pugi::xml_node a : piece.child("PointData").children()) array(grid, a, np, false, kinds);
     for (pugi::xml_node a : piece.child("CellData").children()) array(grid, a, nc, true, kinds);
@@ -787,8 +787,7 @@ class VtuParser {
     } catch (IoError const&) {
       read_failed = std::current_exception();
     }
-    cellray::detail::LargeVector<unsigned char> out;
-    out.resize(size_t(total));
+    InflatedBytes out = inflated_room(t, total);
     std::vector<std::string> err(nread);
     tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nread, 1), [&](tbb::blocked_range<uint64_t> const& r) {
       for (uint64_t i = r.begin(); i < r.end(); ++i)
@@ -797,7 +796,27 @@ class VtuParser {
     for (uint64_t i = 0; i < nread; ++i)
       if (!err[i].empty()) fail_block(at[i], what, i, nblocks, i + 1 == nblocks ? last_size : block, err[i]);
     if (read_failed) std::rethrow_exception(read_failed);
-    return NumArray::owning_bytes(t, total / num_size(t), std::move(out), swap_);
+    return inflated_array(t, total, std::move(out));
+  }
+
+  /// Room for `total` inflated bytes of type t: Float32 in the host's order
+  /// as floats, which a grid can adopt (NumArray::take_floats), zeroed from
+  /// all threads (a std::vector's elements are always set; zeroing them in
+  /// parallel shares the first-write faults); anything else unset.
+  struct InflatedBytes {
+    std::vector<float> floats;
+    cellray::detail::LargeVector<unsigned char> bytes;
+    unsigned char* data() { return floats.empty() ? bytes.data() : reinterpret_cast<unsigned char*>(floats.data()); }
+  };
+  InflatedBytes inflated_room(NumType t, uint64_t total) const {
+    InflatedBytes b;
+    if (t == NumType::f32 && !swap_ && total >= 4) cellray::detail::resize_zeroed(b.floats, total / 4);
+    else b.bytes.resize(size_t(total));
+    return b;
+  }
+  NumArray inflated_array(NumType t, uint64_t total, InflatedBytes&& b) const {
+    if (!b.floats.empty()) return NumArray::owning_floats(std::move(b.floats));
+    return NumArray::owning_bytes(t, total / num_size(t), std::move(b.bytes), swap_);
   }
 
   /// inflate_blocks for base64 text that is one run of plain symbols (as
@@ -816,8 +835,7 @@ class VtuParser {
     if (!text || (ctotal + 2) / 3 > groups) return std::nullopt;
     std::vector<uint64_t> first(nblocks + 1, 0);  // compressed bytes before each block
     for (uint64_t i = 0; i < nblocks; ++i) first[i + 1] = first[i] + csize[i];
-    cellray::detail::LargeVector<unsigned char> out;
-    out.resize(size_t(total));
+    InflatedBytes out = inflated_room(t, total);
     std::vector<std::string> err(nblocks);
     std::atomic<bool> plain{true};
     tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nblocks, 1), [&](tbb::blocked_range<uint64_t> const& r) {
@@ -839,7 +857,7 @@ class VtuParser {
       if (!err[i].empty())
         fail_block(s.offset() + 4 * ((first[i] + 2) / 3), what, i, nblocks, i + 1 == nblocks ? last_size : block, err[i]);
     s.skip_decoded(ctotal);
-    return NumArray::owning_bytes(t, total / num_size(t), std::move(out), swap_);
+    return inflated_array(t, total, std::move(out));
   }
 
   /// A zlib block that does not inflate to its size, named at byte `at`.
@@ -867,14 +885,14 @@ class VtuParser {
       src_.fail_line(offset(a), std::string(where) + " array " + in_quotes(name) + ": NumberOfTuples is not " + std::to_string(tuples));
     uint64_t count = 0;
     if (!checked_mul(tuples, uint64_t(ncomp), count)) src_.fail_line(offset(a), in_quotes(name) + ": too many values");
-    NumArray const data = decode(a, count, std::string(where) + " array " + in_quotes(name));
+    NumArray data = decode(a, count, std::string(where) + " array " + in_quotes(name));
     if (cell) {
       std::vector<float> poly;
       size_t const before = grid.cell_arrays.size();
-      add_cell_array(grid, name, data, ncomp, kinds, &poly, poly_spare_.tets, poly_spare_.hexes);
+      add_cell_array(grid, name, std::move(data), ncomp, kinds, &poly, poly_spare_.tets, poly_spare_.hexes);
       if (grid.cell_arrays.size() > before) polyhedra_values_.emplace_back(name, std::move(poly));  // not a duplicate name
     } else {
-      add_point_array(grid, std::move(name), data, ncomp, poly_spare_.points);
+      add_point_array(grid, std::move(name), std::move(data), ncomp, poly_spare_.points);
     }
   }
 
