@@ -249,6 +249,9 @@ TEST_CASE("VTU encodings read the same grid as ASCII: base64 in parallel chunks,
       {"inline base64, lines of 4000 (breaks inside parallel chunks)", {"binary", false, 4, 0, 4000}},
       {"inline base64 zlib, blocks of 32768 with a short last one, UInt32", {"binary", false, 4, 32768, 0}},
       {"inline base64 zlib, UInt64, wrapped", {"binary", false, 8, 32768, 1000}},
+      // Blocks before the break decode where they inflate, then the whole
+      // array is read again by the careful path.
+      {"inline base64 zlib, a line break after 200000 characters", {"binary", false, 4, 32768, 200000}},
       {"appended raw, UInt64", {"appended", false, 8, 0, 0}},
       {"appended raw, UInt32", {"appended", false, 4, 0, 0}},
       {"appended base64, UInt64", {"appended", true, 8, 0, 0}},
