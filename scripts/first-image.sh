@@ -14,7 +14,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 d=${CELLRAY_DATA_DIR:-../shared/data}
 runs=${RUNS:-5}
-for f in openfoam/component8_heat_608k.vtk openfoam/boxturb48_dns.vtk openfoam/flange_snappy_89k.vtu; do
+for f in openfoam/component8_heat_608k.vtk openfoam/boxturb48_dns.vtk openfoam/flange_snappy_89k.vtu vtk-data/kiefer_dataset.vtu; do
   [ -f "$d/$f" ] || { echo "first-image.sh: $d/$f missing: set CELLRAY_DATA_DIR to the shared data set" >&2; exit 1; }
 done
 # CELLRAY_RENDER=path: time that binary instead (e.g. another build), and
@@ -46,6 +46,7 @@ workloads=(
   "boxturb48 DVR|$d/openfoam/boxturb48_dns.vtk --array enstrophy --mode dvr --size 1024x768"
   "flange .vtu iso|$d/openfoam/flange_snappy_89k.vtu --array T --size 1024x768"
   "flange .vtu DVR|$d/openfoam/flange_snappy_89k.vtu --array T --mode dvr --size 1024x768"
+  "kiefer zlib .vtu iso|$d/vtk-data/kiefer_dataset.vtu --size 1024x768"
 )
 for w in "${workloads[@]}"; do
   name=${w%%|*}
