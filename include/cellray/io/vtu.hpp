@@ -103,9 +103,8 @@ inline uint64_t base64_decode_plain(unsigned char const* text, uint64_t q, unsig
 /// Decodes the 4-symbol groups [g0, g1) of the base64 text at `text` into
 /// `out` (3 bytes a group) when all are plain symbols, except that the
 /// last may end in padding when `may_pad` ("xxx=": 2 bytes, "xx==": 1).
-/// Returns the bytes
-/// written, or -1 when a group holds anything else (the careful path, which
-/// reads whitespace and reports errors, then takes over).
+/// Returns the bytes written, or -1 when a group holds anything else (the
+/// careful path, which reads whitespace and reports errors, then takes over).
 inline int64_t base64_decode_groups(unsigned char const* text, uint64_t g0, uint64_t g1, bool may_pad, unsigned char* out) {
   uint64_t const q = g1 - g0;
   uint64_t const done = base64_decode_plain_serial(text + 4 * g0, q, out);
@@ -823,7 +822,8 @@ class VtuParser {
   /// VTK writes it): each task decodes its own blocks from the file's text
   /// into a small buffer and inflates them, instead of one thread decoding
   /// every block into a buffer of all the compressed bytes first (its fresh
-  /// pages were a quarter of a zlib .vtu's load). Empty when a block's text
+  /// pages took a quarter of a zlib .vtu's first-write faults while
+  /// loading, and one thread decoded). Empty when a block's text
   /// is not plain (line breaks, streams back to back); inflate_blocks'
   /// careful path then reads it all again and reports what it finds.
   std::optional<NumArray> inflate_blocks_in_place(ByteStream& s, NumType t, std::vector<uint64_t> const& csize,
