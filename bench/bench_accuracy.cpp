@@ -320,7 +320,7 @@ void sweep_dvr(Subject const& s, Settings const& st, std::vector<Row>& rows) {
     Traversal tr;
   };
   std::vector<Cfg> cfgs;
-  for (int div : {125, 250, 500, 1000, 2000})
+  for (int div : {25, 50, 125, 250, 500, 1000, 2000})
     for (DvrMode m : {DvrMode::samples, DvrMode::segments})
       for (bool ess : {true, false}) cfgs.push_back({div, 16, m, ess, best, Traversal::packet});
   for (int g : {1, 4, 8, 32}) cfgs.push_back({500, g, DvrMode::samples, true, best, Traversal::packet});

@@ -723,7 +723,7 @@ int main(int argc, char** argv) {
   app.add_option("--tf", o.tf, "Transfer function preset: cool-warm, viridis, inferno, grayscale");
   app.add_option("--opacity", o.opacity, "Largest DVR opacity per unit distance (default 0.8)")->check(CLI::Range(0.f, 1.f));
   app.add_option("--unit-distance", o.unit_distance, "DVR opacity unit distance (default: diagonal / 10)");
-  app.add_option("--step", o.step, "DVR step, world units (default: the whole mesh's diagonal / 250 or / 500)");
+  app.add_option("--step", o.step, "DVR step, world units (default: the whole mesh's diagonal / 125 or / 500)");
   app.add_option("--dvr-mode", o.dvr_mode, "segments or samples")->check(CLI::IsMember({"segments", "samples"}));
   app.add_option("--background", o.background, "R,G,B[,A] in [0,1], or white, black, transparent");
   app.add_option("--eye", o.eye, "Camera position X,Y,Z");

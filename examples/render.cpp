@@ -371,7 +371,7 @@ void add_options(CLI::App& app, Options& o) {
       ->check(positive_finite);
   app.add_option("--step", o.step,
                  "DVR step, world units: sample spacing, or the longest integration piece of a cell segment "
-                 "(default: scene diagonal / 250 for segments, / 500 for samples)")
+                 "(default: scene diagonal / 125 for segments, / 500 for samples)")
       ->check(positive_finite);
   app.add_option("--dvr-mode", o.dvr_mode,
                  "DVR by exact cell segments (default: faster and more accurate, docs/accuracy.md) or point samples")

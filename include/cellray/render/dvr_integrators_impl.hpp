@@ -97,43 +97,89 @@ CELLRAY_FORCE_INLINE void shade_batch(DvrShading const& sh, float inv_gradient_f
   cb = simd::select(ok, cb + m * (simd::min(one, cb * lit + spec) - cb), cb);
 }
 
-/// The transfer function over a piece of length `d` whose midpoint value is
-/// `v`, per lane: colour from the table (linear in between) and opacity
-/// 1 - exp(d ln(transmittance per unit length)); a NaN value is transparent.
-/// Forced inline: GCC 12 called it out of line in the tet march once the
-/// onward clip was inlined there (component8 DVR 1.06-1.07x inlined).
 template <class A> struct PieceColor {
   vfloat<A> r, g, b, a;
 };
-template <class A>
-CELLRAY_FORCE_INLINE PieceColor<A> piece_color(PreparedTf const& ptf, vfloat<A> const& v, vfloat<A> const& d) {
-  vfloat<A> const lo(ptf.lo), scale(ptf.scale), zero(0.f), one(1.f);
-  vfloat<A> const last(float(ptf.r.size() - 1) - 1e-3f);
-  vmask<A> const ok = !simd::isnan(v);
-  vfloat<A> const x = simd::min(simd::max((simd::select(ok, v, lo) - lo) * scale, zero), last);
-  vint<A> const i = TfTable<A>::template xsimd_trunc<A>(x);
-  vfloat<A> const f = x - TfTable<A>::template to_float<A>(i);
-  auto lerp = [&](PairTable const& t) { return lerp_pairs<A>(t.data(), i, f); };
-  vfloat<A> const lt = simd::select(ok, simd::min(lerp(ptf.log_transmittance), zero), zero);
-  return {lerp(ptf.r), lerp(ptf.g), lerp(ptf.b), one - vexp<A>(lt * d)};
+
+/// The transfer function's integrals at value `v` per lane
+/// (PreparedTf::integrals): the coordinate u, its cell, and the cell's
+/// integrals before it (hi + lo) and across it, for the extinction and for
+/// r, g, b times it. Three 16-byte loads a lane (simd::gather_quads).
+template <class A> struct TfIntegralAt {
+  vfloat<A> u, cell;  ///< cell: its index as a float
+  vfloat<A> hi[4], lo[4], in[4];
+  vmask<A> ok;  ///< v is not NaN
+};
+template <class A> CELLRAY_FORCE_INLINE TfIntegralAt<A> tf_integral_at(PreparedTf const& ptf, vfloat<A> const& v) {
+  TfIntegralAt<A> t;
+  t.ok = !simd::isnan(v);
+  // Within +-2^22 a float keeps a cell's index and a fraction of it; beyond
+  // the range the function is constant, so clamping there changes no mean.
+  vfloat<A> const lo(ptf.lo), bound(4194304.f), one(1.f);
+  t.u = simd::min(simd::max((simd::select(t.ok, v, lo) - lo) * vfloat<A>(ptf.scale) + one, -bound), bound);
+  t.cell = simd::floor(simd::min(simd::max(t.u, vfloat<A>(0.f)), vfloat<A>(float(ptf.size))));
+  vint<A> const at = TfTable<A>::template xsimd_trunc<A>(t.cell) * vint<A>(PreparedTf::integral_stride);
+  float const* base = ptf.integrals.data();
+  simd::gather_quads(base, at, t.hi);
+  simd::gather_quads(base + 4, at, t.lo);
+  simd::gather_quads(base + 8, at, t.in);
+  return t;
 }
 
-/// One ray's sorted segments over [from, to], unshaded: the pieces (midpoint
-/// value and length) listed scalar, then their transfer-function colour and
-/// opacity W pieces at a time (table gathers, vector exp), then composited
-/// front to back in order, scalar, with exact termination.
+/// A piece of length `d` whose value runs linearly between the values of
+/// `a` and `b` (tf_integral_at), per lane: opacity 1 - exp(-d x the mean
+/// extinction over those values) and the extinction-weighted mean colour,
+/// exact for the table's function however it varies in between (a midpoint
+/// rule steps over an opacity peak narrower than the piece's value span:
+/// tests/test_render_dvr.cpp, "narrow peak"). A NaN end: transparent.
+/// Forced inline: GCC 12 called its predecessor out of line in the tet
+/// march once the onward clip was inlined there (component8 DVR 1.06-1.07x
+/// inlined).
+template <class A>
+CELLRAY_FORCE_INLINE PieceColor<A> piece_between(TfIntegralAt<A> const& a, TfIntegralAt<A> const& b, vfloat<A> const& d) {
+  vfloat<A> const zero(0.f), one(1.f);
+  vfloat<A> const dc = b.cell - a.cell;
+  vmask<A> const same = dc == zero, up = dc == one, down = dc == -one;
+  vfloat<A> const fa = a.u - a.cell, fb = b.u - b.cell;
+  // The integral from a to b is before[b] - before[a] + fb in[b] - fa in[a];
+  // between neighbouring cells the difference of `before` is the lower
+  // cell's `in`, taken as such (hi + lo would leave a rounding of the sum).
+  vfloat<A> const wb = simd::select(same, fb - fa, simd::select(down, fb - one, fb));
+  vfloat<A> const wa = simd::select(same, zero, simd::select(up, fa - one, fa));
+  vmask<A> const far = !(same || up || down);
+  vfloat<A> s[4];
+  for (int k = 0; k < 4; ++k)
+    s[k] = simd::select(far, (b.hi[k] - a.hi[k]) + (b.lo[k] - a.lo[k]), zero) + (wb * b.in[k] - wa * a.in[k]);
+  // Within one cell the function is the cell's mean (no division by a
+  // value span that may be zero).
+  vfloat<A> const du = simd::select(same, one, b.u - a.u);
+  vfloat<A> const sigma = simd::select(same, b.in[0], s[0] / du);
+  vfloat<A> const weight = simd::select(same, b.in[0], s[0]);
+  vmask<A> const lit = weight != zero;
+  vfloat<A> const inv = one / simd::select(lit, weight, one);
+  auto colour = [&](int k) { return simd::select(lit, simd::select(same, b.in[k], s[k]) * inv, zero); };
+  vmask<A> const ok = a.ok && b.ok;
+  return {colour(1), colour(2), colour(3), simd::select(ok && sigma > zero, one - vexp<A>(-(sigma * d)), zero)};
+}
+
+/// One ray's sorted segments over [from, to], unshaded: the pieces (the
+/// values at their ends, their length) listed scalar, then their
+/// transfer-function colour and opacity W pieces at a time (piece_between:
+/// table loads, vector exp), then composited front to back in order,
+/// scalar, with exact termination.
 template <class A>
 inline void integrate_pieces(PreparedTf const& ptf, float step, float termination, FieldSegment const* seg,
                              uint8_t const* order, int n, float from, float to, float (&col)[3], float& alpha,
                              float depth_at, float& depth) {
   constexpr int W = width<A>;
   constexpr int cap = 128;  // pieces per batch (a multiple of every W)
-  alignas(64) float pv[cap], pd[cap], pt[cap];
+  alignas(64) float pv0[cap], pv1[cap], pd[cap], pt[cap];
   alignas(64) float pr[cap], pg[cap], pb[cap], pa[cap];
   auto flush = [&](int np) {
-    for (int j = np; j % W; ++j) pv[j] = ptf.lo, pd[j] = 0.f;  // padding: zero length, no opacity
+    for (int j = np; j % W; ++j) pv0[j] = pv1[j] = ptf.lo, pd[j] = 0.f;  // padding: zero length, no opacity
     for (int j = 0; j < np; j += W) {
-      PieceColor<A> const c = piece_color<A>(ptf, simd::load<A>(pv + j), simd::load<A>(pd + j));
+      PieceColor<A> const c = piece_between<A>(tf_integral_at<A>(ptf, simd::load<A>(pv0 + j)),
+                                               tf_integral_at<A>(ptf, simd::load<A>(pv1 + j)), simd::load<A>(pd + j));
       simd::store(pa + j, c.a), simd::store(pr + j, c.r), simd::store(pg + j, c.g), simd::store(pb + j, c.b);
     }
     for (int j = 0; j < np && alpha < termination; ++j) {
@@ -151,9 +197,11 @@ inline void integrate_pieces(PreparedTf const& ptf, float step, float terminatio
     if (!(e > a)) continue;
     int const pieces = std::max(1, int(std::ceil((e - a) / step)));
     float const d = (e - a) / float(pieces);
+    float v0 = fs.value_at(fs.lambda(a));
     for (int i = 0; i < pieces; ++i) {
       pt[np] = a + (float(i) + 0.5f) * d;
-      pv[np] = fs.value_at(fs.lambda(pt[np]));
+      pv0[np] = v0;
+      pv1[np] = v0 = fs.value_at(fs.lambda(i + 1 == pieces ? e : a + float(i + 1) * d));
       pd[np++] = d;
       if (np == cap) {
         flush(np), np = 0;
@@ -186,8 +234,6 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
   constexpr int W = width<A>;
   PreparedTf const& ptf = *s.tf;
   auto depth_lane = simd::to_array<A>(depth);
-  float const last_entry = float(ptf.r.size() - 1) - 1e-3f;
-  auto lerp_entry = [](PairTable const& t, int i, float f) { return t.lerp(i, f); };
   bool const shade = p.shading.enabled;
   // The first window is group_size steps long; each further one twice the
   // last: a ray still going after a window is likely crossing transparent or
@@ -258,24 +304,21 @@ void integrate_segments(PreparedScene const& s, RayPacket<A> const& r, vmask<A> 
         if (!(e > a)) continue;
         int const pieces = std::max(1, int(std::ceil((e - a) / s.step)));
         float const d = (e - a) / float(pieces);
+        // As integrate_pieces, one piece at a time (the scalar arch of
+        // piece_between), shaded with the gradient at its midpoint.
+        TfIntegralAt<scalar> from = tf_integral_at<scalar>(ptf, fs.value_at(fs.lambda(a)));
         for (int i = 0; i < pieces && alpha[l] < p.termination; ++i) {
-          float const lam = fs.lambda(a + (float(i) + 0.5f) * d);
-          // The transfer function from the table (4096 entries, linear in
-          // between, as the samples use): colour and ln(transmittance) per
-          // unit length, so a piece of any length costs one exp.
-          float const x = std::min(std::max((fs.value_at(lam) - ptf.lo) * ptf.scale, 0.f), last_entry);
-          if (!(x == x)) continue;
-          int const e0 = int(x);
-          float const f = x - float(e0);
-          float const lt = lerp_entry(ptf.log_transmittance, e0, f);
-          if (!(lt < 0.f)) continue;  // transparent
-          glm::vec3 c(lerp_entry(ptf.r, e0, f), lerp_entry(ptf.g, e0, f), lerp_entry(ptf.b, e0, f));
+          TfIntegralAt<scalar> const to = tf_integral_at<scalar>(ptf, fs.value_at(fs.lambda(i + 1 == pieces ? e : a + float(i + 1) * d)));
+          PieceColor<scalar> const pc = piece_between<scalar>(from, to, d);
+          from = to;
+          float const ad = pc.a;
+          if (!(ad > 0.f)) continue;  // transparent
+          glm::vec3 c(pc.r, pc.g, pc.b);
           if (shade) {
             float g[3];
-            fs.gradient_at(lam, g);
+            fs.gradient_at(fs.lambda(a + (float(i) + 0.5f) * d), g);
             shade_color(p.shading, s.inv_gradient_full, g, dir, c.r, c.g, c.b);
           }
-          float const ad = 1.f - std::exp(lt * d);
           float const w = std::min((1.f - alpha[l]) * ad, p.termination - alpha[l]);  // exact termination
           col[l][0] += w * c.r, col[l][1] += w * c.g, col[l][2] += w * c.b;
           if (alpha[l] < depth_at && alpha[l] + w >= depth_at) depth_lane[size_t(l)] = a + (float(i) + 0.5f) * d;
@@ -406,6 +449,12 @@ CELLRAY_NOINLINE void integrate_march_as(PreparedScene const& s, March& m, RayPa
   PreparedTf const& ptf = *s.tf;
   vfloat<A> const zero(0.f), one(1.f), half(0.5f), term(p.termination), inv_step(1.f / s.step);
   RayBatch<A> const ray = ray_batch(r);
+  // The transfer function's integrals at the end of each lane's last piece,
+  // at t = carry_t (NaN: none): a step that starts there, as a march through
+  // face neighbours does, starts from them instead of looking them up again
+  // (the onward clip's entry value is the last exit value, bit for bit).
+  TfIntegralAt<A> carry;
+  vfloat<A> carry_t(std::numeric_limits<float>::quiet_NaN());
   // The pieces of one step's segments [t_in, t_out] past a, up to e; the
   // field f(lambda) and, when shading, the gradient at lambda.
   auto composite = [&](vmask<A> const& go, vfloat<A> const& a, vfloat<A> const& e, vfloat<A> const& t_in,
@@ -416,13 +465,17 @@ CELLRAY_NOINLINE void integrate_march_as(PreparedScene const& s, March& m, RayPa
     vfloat<A> const seg_len = t_out - t_in;
     vmask<A> const long_enough = seg_len > zero;
     vfloat<A> const inv_len = one / simd::select(long_enough, seg_len, one);
+    auto lambda = [&](vfloat<A> const& t) { return simd::select(long_enough, (t - t_in) * inv_len, zero); };
+    TfIntegralAt<A> from = simd::any(go && !(a == carry_t)) ? tf_integral_at<A>(ptf, f(lambda(a))) : carry;
     vfloat<A> piece(0.f);
     for (vmask<A> on = go; simd::any(on); piece = piece + one, on = on && piece < pieces && ca < term) {
       vfloat<A> const tm = a + (piece + half) * d;
-      vfloat<A> const lam = simd::select(long_enough, (tm - t_in) * inv_len, zero);
-      PieceColor<A> c = piece_color<A>(ptf, f(lam), d);  // as integrate_pieces
+      vfloat<A> const next = piece + one;
+      TfIntegralAt<A> const to = tf_integral_at<A>(ptf, f(lambda(simd::select(next < pieces, a + next * d, e))));
+      PieceColor<A> c = piece_between<A>(from, to, d);  // as integrate_pieces
+      from = to;
       if (shade) {
-        Vec3<A> const g = gradient_at(lam);
+        Vec3<A> const g = gradient_at(lambda(tm));
         shade_batch<A>(p.shading, s.inv_gradient_full, g.x, g.y, g.z, r, c.r, c.g, c.b);
       }
       vfloat<A> const w = simd::select(on, simd::min((one - ca) * c.a, term - ca), zero);  // exact termination
@@ -430,6 +483,8 @@ CELLRAY_NOINLINE void integrate_march_as(PreparedScene const& s, March& m, RayPa
       depth = simd::select(ca < vfloat<A>(depth_at) && ca + w >= vfloat<A>(depth_at), tm, depth);
       ca = ca + w;
     }
+    // A lane's last `to` was taken at e (later rounds look up e again).
+    carry = from, carry_t = simd::select(go, e, vfloat<A>(std::numeric_limits<float>::quiet_NaN()));
   };
   MarchPiece<A> pc;  // hexahedra and mixed: written by each step where it goes on (`go`)
   vmask<A> live = inside;
@@ -442,6 +497,7 @@ CELLRAY_NOINLINE void integrate_march_as(PreparedScene const& s, March& m, RayPa
     vmask<A> const has = live && m.has_cell();
     if (simd::none(has)) {
       live = live && !m.locate(live, how, threshold);
+      carry_t = vfloat<A>(std::numeric_limits<float>::quiet_NaN());  // a located cell's field may differ there
       continue;
     }
     if constexpr (March::linear_on_ray) {

@@ -169,25 +169,119 @@ inline ValueWindows opacity_windows(TransferFunction const& tf) {
   return out;
 }
 
+/// The integrals over u of sigma = -ln(1 - min(a, 0.999999)) / unit (the
+/// reference renderer's extinction) and of r, g, b times it, where colour
+/// and opacity run linearly from `c0` to `c1` over a width `w` of u, added
+/// to `acc`. Exact: -ln(1 - a) is far from linear as a nears 1, and a
+/// trapezoid over a table's entries there overstated a narrow opaque peak's
+/// optical depth by a third.
+inline void add_linear_integrals(glm::dvec4 c0, glm::dvec4 c1, double w, double unit, double (&acc)[4]) {
+  constexpr double y_min = 1.0 - 0.999999;  // transmittance per unit distance, at least
+  double y0 = 1.0 - c0.a, y1 = 1.0 - c1.a;   // linear in t until clamped
+  if (y0 < y_min && y1 < y_min) y0 = y1 = y_min;
+  if ((y0 < y_min) != (y1 < y_min)) {
+    // Where y passes y_min the clamp starts: y_min (constant) on that side.
+    double const t = (y0 - y_min) / (y0 - y1);
+    glm::dvec4 const cm = c0 + t * (c1 - c0);
+    bool const first = y0 < y_min;  // the clamped side
+    double const wc = w * (first ? t : 1.0 - t), sigma = -std::log(y_min) / unit * wc;
+    glm::dvec4 const mean = 0.5 * (cm + (first ? c0 : c1));
+    acc[0] += sigma, acc[1] += mean.r * sigma, acc[2] += mean.g * sigma, acc[3] += mean.b * sigma;
+    glm::dvec4 a = c0, b = c1;
+    (first ? a : b) = cm;
+    (first ? y0 : y1) = y_min;
+    c0 = a, c1 = b, w -= wc;
+  }
+  double const dy = y1 - y0;
+  if (std::fabs(dy) <= 1e-3 * std::min(y0, y1)) {
+    // -ln y nearly constant: 3-point Gauss-Legendre in t (exact to ~1e-12 here).
+    constexpr double x[3] = {0.5 - 0.3872983346207417, 0.5, 0.5 + 0.3872983346207417};
+    constexpr double wt[3] = {5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0};
+    for (int q = 0; q < 3; ++q) {
+      glm::dvec4 const c = c0 + x[q] * (c1 - c0);
+      double const sigma = -std::log(y0 + x[q] * dy) / unit * w * wt[q];
+      acc[0] += sigma, acc[1] += c.r * sigma, acc[2] += c.g * sigma, acc[3] += c.b * sigma;
+    }
+    return;
+  }
+  // With c = alpha + beta y: the antiderivatives of -ln y and -y ln y in y.
+  auto f1 = [](double y) { return y - y * std::log(y); };
+  auto f2 = [](double y) { return 0.25 * y * y - 0.5 * y * y * std::log(y); };
+  double const i1 = (f1(y1) - f1(y0)) / dy, i2 = (f2(y1) - f2(y0)) / dy, k = w / unit;
+  acc[0] += k * i1;
+  for (int ch = 0; ch < 3; ++ch) {
+    double const beta = (c1[ch] - c0[ch]) / dy, alpha = c0[ch] - beta * y0;
+    acc[ch + 1] += k * (alpha * i1 + beta * i2);
+  }
+}
+
+/// PreparedTf::integrals of `tf` for a table of `size` entries, entry k at
+/// value lo + k / scale. Coordinate u = (v - lo) * scale + 1 puts entry k
+/// at u = k + 1; cell 0 is u < 1 (the first entry's value below the range),
+/// cell c = 1 .. size - 1 is [c, c + 1) (between entries c - 1 and c: the
+/// function's exact integrals, split at its control values), cell `size` is
+/// u >= size (the last entry's value above it). The integral up to u in
+/// cell c is before[c] + (u - c) * cell[c], also outside [0, size + 1), so
+/// values beyond the range integrate as the ends continue. `before` sums in
+/// double and keeps hi + lo: a difference of two stays exact to float
+/// precision of itself, not of the whole sum (faint material valued above
+/// a near-opaque band keeps its opacity).
+inline std::vector<float> tf_integrals(TransferFunction const& tf, float lo, float scale, int size) {
+  constexpr size_t stride = PreparedTf::integral_stride;
+  std::vector<float> out((size_t(size) + 1) * stride);
+  double const unit = tf.unit_distance;
+  auto at = [&](double v) { return glm::dvec4(tf(float(v))); };
+  auto value = [&](int k) { return double(lo) + double(k) / double(scale); };
+  double before[4] = {0.0, 0.0, 0.0, 0.0};
+  size_t knot = 0;  // first control value past the cell's start
+  for (int c = 0; c <= size; ++c) {
+    double cell[4] = {0.0, 0.0, 0.0, 0.0};
+    if (c == 0 || c == size) {
+      glm::dvec4 const e = at(value(c == 0 ? 0 : size - 1));
+      add_linear_integrals(e, e, 1.0, unit, cell);
+    } else {
+      double const v0 = value(c - 1), v1 = value(c), w = 1.0 / (v1 - v0);
+      double from = v0;
+      glm::dvec4 c_from = at(v0);
+      while (knot < tf.values.size() && double(tf.values[knot]) <= v0) ++knot;
+      for (; knot < tf.values.size() && double(tf.values[knot]) < v1; ++knot) {
+        double const to = tf.values[knot];
+        glm::dvec4 const c_to(tf.rgba[knot]);
+        add_linear_integrals(c_from, c_to, (to - from) * w, unit, cell);
+        from = to, c_from = c_to;
+      }
+      add_linear_integrals(c_from, at(v1), (v1 - from) * w, unit, cell);
+    }
+    float* e = out.data() + size_t(c) * stride;
+    for (int ch = 0; ch < 4; ++ch) {
+      float const hi = float(before[ch]);
+      e[ch] = hi, e[4 + ch] = float(before[ch] - double(hi)), e[8 + ch] = float(cell[ch]);
+      before[ch] += cell[ch];
+    }
+  }
+  return out;
+}
+
 /// 4096 entries: the piecewise-linear function is reproduced to within
 /// 1/4096 of its range between control points.
 inline PreparedTf tf_table(TransferFunction const& tf, float step) {
   constexpr int size = 4096;
   PreparedTf t;
   t.tf = &tf;
+  t.size = size;
   t.lo = tf.values.front();
   float const hi = tf.values.size() > 1 ? tf.values.back() : t.lo + 1.f;
   // In double: hi - lo overflows float for values near +-3e38.
   t.scale = float(double(size - 1) / (double(hi) - double(t.lo)));
-  std::vector<float> r(size), g(size), b(size), a(size), lt(size);
+  std::vector<float> r(size), g(size), b(size), a(size);
   for (int i = 0; i < size; ++i) {
     glm::vec4 const c = tf(float(double(t.lo) + double(i) / double(t.scale)));
     r[size_t(i)] = c.r, g[size_t(i)] = c.g, b[size_t(i)] = c.b;
     float const keep = 1.f - std::min(c.a, 0.999999f);  // fraction of light let through per unit distance
     a[size_t(i)] = 1.f - std::pow(keep, step / tf.unit_distance);
-    lt[size_t(i)] = std::log(keep) / tf.unit_distance;
   }
-  t.r = PairTable(r), t.g = PairTable(g), t.b = PairTable(b), t.a = PairTable(a), t.log_transmittance = PairTable(lt);
+  t.r = PairTable(r), t.g = PairTable(g), t.b = PairTable(b), t.a = PairTable(a);
+  t.integrals = tf_integrals(tf, t.lo, t.scale, size);
   return t;
 }
 

@@ -65,13 +65,22 @@ struct PairTable {
 };
 
 /// Transfer function sampled into a table with the opacity corrected for the
-/// sample spacing (DVR samples mode), plus its raw form for cell segments.
+/// sample spacing (DVR samples mode), plus its integrals over value for cell
+/// segments.
 struct PreparedTf {
   PairTable r, g, b, a;  ///< `size` entries over [lo, lo + (size - 1) / scale]
-  /// Per entry ln(1 - opacity) / unit distance (<= 0): a piece of length d
-  /// has opacity 1 - exp(d * this) (cell segments: pieces of any length).
-  PairTable log_transmittance;
+  /// Cell segments integrate a piece whose value runs from v0 to v1 over the
+  /// transfer function between them, not at one point: its optical depth
+  /// is exact, and its colour the extinction-weighted mean, however narrow
+  /// the opacity peaks it crosses (a midpoint steps over a peak narrower
+  /// than a piece's value span: tf_integrals). Per cell, 12 floats: the
+  /// integral over the cells before it as a double sum split into two
+  /// floats (hi, lo), then over the cell itself, each for the extinction
+  /// -ln(1 - opacity) / unit distance and for r, g, b times it.
+  std::vector<float> integrals;
+  static constexpr int integral_stride = 12;
   float lo = 0.f, scale = 1.f;
+  int size = 0;  ///< entries; integrals has size + 1 cells
   TransferFunction const* tf = nullptr;
 };
 

@@ -324,6 +324,9 @@ inline void gather_quads(float const* base, xsimd::batch<int32_t, A> const& at, 
     out[0] = r0, out[1] = r1, out[2] = r2, out[3] = r3;
   }
 }
+inline void gather_quads(float const* base, int32_t at, float (&out)[4]) noexcept {
+  for (int k = 0; k < 4; ++k) out[k] = base[at + k];
+}
 inline void gather_quads(int32_t const* base, int32_t at, int32_t (&out)[4]) noexcept {
   for (int k = 0; k < 4; ++k) out[k] = base[at + k];
 }
