@@ -104,7 +104,7 @@ template <class A> struct PieceColor {
 /// The transfer function's integrals at value `v` per lane
 /// (PreparedTf::integrals): the coordinate u, its cell, and the cell's
 /// integrals before it (hi + lo) and across it, for the extinction and for
-/// r, g, b times it. Three 16-byte loads a lane (simd::gather_quads).
+/// r, g, b times it. Three 16-byte loads a lane (simd::gather_quads3).
 template <class A> struct TfIntegralAt {
   vfloat<A> u, cell;  ///< cell: its index as a float
   vfloat<A> hi[4], lo[4], in[4];
@@ -119,10 +119,7 @@ template <class A> CELLRAY_FORCE_INLINE TfIntegralAt<A> tf_integral_at(PreparedT
   t.u = simd::min(simd::max((simd::select(t.ok, v, lo) - lo) * vfloat<A>(ptf.scale) + one, -bound), bound);
   t.cell = simd::floor(simd::min(simd::max(t.u, vfloat<A>(0.f)), vfloat<A>(float(ptf.size))));
   vint<A> const at = TfTable<A>::template xsimd_trunc<A>(t.cell) * vint<A>(PreparedTf::integral_stride);
-  float const* base = ptf.integrals.data();
-  simd::gather_quads(base, at, t.hi);
-  simd::gather_quads(base + 4, at, t.lo);
-  simd::gather_quads(base + 8, at, t.in);
+  simd::gather_quads3(ptf.integrals.data(), at, t.hi, t.lo, t.in);
   return t;
 }
 

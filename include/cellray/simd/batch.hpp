@@ -282,16 +282,10 @@ inline void gather_pairs(float const* pairs, xsimd::batch<int32_t, A> const& idx
   }
 }
 
-/// Four consecutive 32-bit words per lane, lane i's at `base + at[i]`, into
-/// out[0..3] (word k of every lane in out[k]): one 16-byte load a lane and
-/// a transpose, where 16-lane gathers of the four cost about twice as much
-/// on the Zen 5 (docs/performance.md). Every lane's four words must be
-/// readable.
+/// gather_quads from offsets already stored to memory (`o`: one int a lane).
 template <class A>
-inline void gather_quads(float const* base, xsimd::batch<int32_t, A> const& at, xsimd::batch<float, A> (&out)[4]) noexcept {
+CELLRAY_FORCE_INLINE void quads_at_offsets(float const* base, int32_t const* o, xsimd::batch<float, A> (&out)[4]) noexcept {
   if constexpr (is_avx512<A>) {
-    alignas(64) int32_t o[16];
-    _mm512_store_si512(o, __m512i(at));
     auto row = [&](int a, int b, int c, int d) {  // lanes a, b, c, d in the four 128-bit blocks
       __m512 r = _mm512_castps128_ps512(_mm_loadu_ps(base + o[a]));
       r = _mm512_insertf32x4(r, _mm_loadu_ps(base + o[b]), 1);
@@ -305,8 +299,6 @@ inline void gather_quads(float const* base, xsimd::batch<int32_t, A> const& at, 
     out[0] = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2)), out[1] = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
     out[2] = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3)), out[3] = _mm512_castpd_ps(_mm512_unpackhi_pd(t1, t3));
   } else if constexpr (is_avx2<A>) {
-    alignas(32) int32_t o[8];
-    _mm256_store_si256(reinterpret_cast<__m256i*>(o), __m256i(at));
     auto row = [&](int a, int b) {
       return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(base + o[a])), _mm_loadu_ps(base + o[b]), 1);
     };
@@ -316,16 +308,40 @@ inline void gather_quads(float const* base, xsimd::batch<int32_t, A> const& at, 
     out[0] = _mm256_castpd_ps(_mm256_unpacklo_pd(t0, t2)), out[1] = _mm256_castpd_ps(_mm256_unpackhi_pd(t0, t2));
     out[2] = _mm256_castpd_ps(_mm256_unpacklo_pd(t1, t3)), out[3] = _mm256_castpd_ps(_mm256_unpackhi_pd(t1, t3));
   } else {
-    alignas(16) int32_t o[4];
-    _mm_store_si128(reinterpret_cast<__m128i*>(o), __m128i(at));
     __m128 r0 = _mm_loadu_ps(base + o[0]), r1 = _mm_loadu_ps(base + o[1]), r2 = _mm_loadu_ps(base + o[2]),
            r3 = _mm_loadu_ps(base + o[3]);
     _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
     out[0] = r0, out[1] = r1, out[2] = r2, out[3] = r3;
   }
 }
+
+/// Four consecutive 32-bit words per lane, lane i's at `base + at[i]`, into
+/// out[0..3] (word k of every lane in out[k]): one 16-byte load a lane and
+/// a transpose, where 16-lane gathers of the four cost about twice as much
+/// on the Zen 5 (docs/performance.md). Every lane's four words must be
+/// readable.
+template <class A>
+inline void gather_quads(float const* base, xsimd::batch<int32_t, A> const& at, xsimd::batch<float, A> (&out)[4]) noexcept {
+  alignas(64) int32_t o[xsimd::batch<int32_t, A>::size];
+  at.store_aligned(o);
+  quads_at_offsets<A>(base, o, out);
+}
+
+/// Three gather_quads from `base + at`, `base + at + 4` and `base + at + 8`
+/// (12 consecutive words a lane), the offsets stored once; inlined.
+template <class A>
+CELLRAY_FORCE_INLINE void gather_quads3(float const* base, xsimd::batch<int32_t, A> const& at,
+                                        xsimd::batch<float, A> (&q0)[4], xsimd::batch<float, A> (&q1)[4],
+                                        xsimd::batch<float, A> (&q2)[4]) noexcept {
+  alignas(64) int32_t o[xsimd::batch<int32_t, A>::size];
+  at.store_aligned(o);
+  quads_at_offsets<A>(base, o, q0), quads_at_offsets<A>(base + 4, o, q1), quads_at_offsets<A>(base + 8, o, q2);
+}
 inline void gather_quads(float const* base, int32_t at, float (&out)[4]) noexcept {
   for (int k = 0; k < 4; ++k) out[k] = base[at + k];
+}
+inline void gather_quads3(float const* base, int32_t at, float (&q0)[4], float (&q1)[4], float (&q2)[4]) noexcept {
+  for (int k = 0; k < 4; ++k) q0[k] = base[at + k], q1[k] = base[at + 4 + k], q2[k] = base[at + 8 + k];
 }
 inline void gather_quads(int32_t const* base, int32_t at, int32_t (&out)[4]) noexcept {
   for (int k = 0; k < 4; ++k) out[k] = base[at + k];
