@@ -51,6 +51,13 @@ $r "$d"/openfoam/flange_snappy_89k.vtu --mode dvr --tf inferno --legend --title 
 $r "$d"/vtk-data/kiefer_dataset.vtu --iso 0.5,2,6 --legend --title "kiefer bracket: stress (psi)" \
    --size 480x360 -o $out/kiefer_stress_iso.png
 $r "$d"/gmsh/component8_84k.msh --mode dvr --size 480x360 -o $out/component8_msh_dvr.png
+# A narrow opacity peak (T from 472 to 474 K, opacity 1 at 473): cell
+# segments at the default step and the double-precision reference.
+for ref in "" --reference; do
+  $r "$d"/openfoam/component8_heat_608k.vtk --array T --mode dvr --tf docs/images/narrow_peak_tf.json \
+     --tf-file-range --unit-distance 0.3 --background white $ref --size 400x300 \
+     -o $out/component8_narrow_peak${ref:+_reference}.png
+done
 # The Embree host example (examples/04_embree_host.cpp): its generated mesh.
 ./build/examples/04_embree_host $out/embree_host.png
 ./build/examples/04_embree_host --iso $out/embree_host_iso.png

@@ -128,7 +128,8 @@ template <class A> CELLRAY_FORCE_INLINE TfIntegralAt<A> tf_integral_at(PreparedT
 /// extinction over those values) and the extinction-weighted mean colour,
 /// exact for the table's function however it varies in between (a midpoint
 /// rule steps over an opacity peak narrower than the piece's value span:
-/// tests/test_render_dvr.cpp, "narrow peak"). A NaN end: transparent.
+/// tests/test_render_march.cpp, "narrow opacity peak"). A NaN end:
+/// transparent.
 /// Forced inline: GCC 12 called its predecessor out of line in the tet
 /// march once the onward clip was inlined there (component8 DVR 1.06-1.07x
 /// inlined).
@@ -219,8 +220,8 @@ template <class A> struct SegmentScratch {
 };
 
 /// Cell-segment DVR: the cells each ray crosses, window by window, each
-/// segment integrated in pieces of at most `step` with the exact transfer
-/// function at each piece's midpoint (midpoint rule). The field along a
+/// segment integrated in pieces of at most `step`, each over the transfer
+/// function between its end values (piece_between). The field along a
 /// segment comes from segments.hpp: exact-linear in tets, the cubic through
 /// four on-ray values in hexes.
 template <class A>
@@ -428,8 +429,8 @@ void march_step(MixedMarch<A>& m, RayBatch<A> const& ray, vmask<A> const& has, v
 }
 
 /// Cell-segment DVR by marching (traverse/march.hpp): the same segments as
-/// integrate_segments, the same pieces (at most `step` long, the transfer
-/// function at each piece's midpoint), the same field along a segment and
+/// integrate_segments, the same pieces (at most `step` long, each over the
+/// transfer function between its end values), the same field along a segment and
 /// the same compositing, but one cell per lane per step, integrated across
 /// the lanes in SIMD as it is found. `March`: a CellMarch (one part with
 /// face neighbours) or a MixedMarch (a tet and a hexahedral part, linked),

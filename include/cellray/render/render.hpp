@@ -179,7 +179,8 @@ inline float default_dvr_step(DvrMode mode, float scene_diagonal) {
 struct DvrParams {
   TransferFunction tf;
   /// World units. Samples: the spacing of the samples. Segments: the longest
-  /// piece a cell segment is integrated in (midpoint rule). 0: default_dvr_step.
+  /// piece a cell segment is integrated in (over the transfer function
+  /// between the piece's end values). 0: default_dvr_step.
   float step = 0.f;
   /// Samples per ray in a ray's first traversal (segments: the first
   /// window's length in steps), 1..32; each further traversal of the ray

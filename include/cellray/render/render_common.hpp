@@ -73,10 +73,10 @@ struct PreparedTf {
   /// transfer function between them, not at one point: its optical depth
   /// is exact, and its colour the extinction-weighted mean, however narrow
   /// the opacity peaks it crosses (a midpoint steps over a peak narrower
-  /// than a piece's value span: tf_integrals). Per cell, 12 floats: the
-  /// integral over the cells before it as a double sum split into two
-  /// floats (hi, lo), then over the cell itself, each for the extinction
-  /// -ln(1 - opacity) / unit distance and for r, g, b times it.
+  /// than a piece's value span: tf_integrals). Per cell, 12 floats: hi[4]
+  /// and lo[4], the integral over the cells before it (a double sum as two
+  /// floats), then cell[4], over the cell itself; each for the extinction
+  /// -ln(1 - opacity) / unit distance, then r, g, b times it.
   std::vector<float> integrals;
   static constexpr int integral_stride = 12;
   float lo = 0.f, scale = 1.f;

@@ -337,9 +337,6 @@ CELLRAY_FORCE_INLINE void gather_quads3(float const* base, xsimd::batch<int32_t,
   at.store_aligned(o);
   quads_at_offsets<A>(base, o, q0), quads_at_offsets<A>(base + 4, o, q1), quads_at_offsets<A>(base + 8, o, q2);
 }
-inline void gather_quads(float const* base, int32_t at, float (&out)[4]) noexcept {
-  for (int k = 0; k < 4; ++k) out[k] = base[at + k];
-}
 inline void gather_quads3(float const* base, int32_t at, float (&q0)[4], float (&q1)[4], float (&q2)[4]) noexcept {
   for (int k = 0; k < 4; ++k) q0[k] = base[at + k], q1[k] = base[at + 4 + k], q2[k] = base[at + 8 + k];
 }
