@@ -357,6 +357,43 @@ TEST_CASE("DVR segments: faint material valued above a near-opaque band keeps it
   check_march(g.mesh(), segments(tf, 0.f), 64, "tets 6k, faint above opaque", 0.002);
 }
 
+TEST_CASE("DVR segments: each table cell holds the transfer function's mean extinction and colour over it", "[render][dvr]") {
+  // tf_integrals computes the table cells in parallel tasks, each finding
+  // its first control value itself; 300 control values, so most tasks start
+  // between two of them. Checked against a 256-point midpoint rule over
+  // each cell's values (the function itself, evaluated here): a task that
+  // started from the wrong control value integrates the wrong pieces.
+  TransferFunction tf;
+  for (int k = 0; k < 300; ++k) {
+    float const x = float(k) / 299.f;
+    tf.values.push_back(-2.f + 5.f * x * x);
+    tf.rgba.push_back({x, 1.f - x, 0.5f, 0.45f + 0.45f * std::sin(37.f * x)});
+  }
+  tf.unit_distance = 0.1f;
+  int const size = 4096;
+  float const lo = tf.values.front(), scale = float(size - 1) / (tf.values.back() - lo);
+  std::vector<float> const t = render_detail::tf_integrals(tf, lo, scale, size);
+  int bad = 0;
+  double worst = 0.0;
+  for (int c = 1; c < size; ++c) {
+    double const v0 = double(lo) + double(c - 1) / scale, v1 = double(lo) + double(c) / scale;
+    double mean[4] = {0.0, 0.0, 0.0, 0.0};
+    for (int q = 0; q < 256; ++q) {
+      glm::vec4 const e = tf(float(v0 + (q + 0.5) * (v1 - v0) / 256.0));
+      double const sigma = -std::log(1.0 - std::min(double(e.a), 0.999999)) / tf.unit_distance / 256.0;
+      mean[0] += sigma, mean[1] += e.r * sigma, mean[2] += e.g * sigma, mean[3] += e.b * sigma;
+    }
+    float const* cell = t.data() + size_t(c) * PreparedTf::integral_stride + 8;
+    for (int ch = 0; ch < 4; ++ch) {
+      double const err = std::fabs(double(cell[ch]) - mean[ch]) / (mean[0] + 1e-3);
+      worst = std::max(worst, err);
+      bad += err > 1e-3;
+    }
+  }
+  INFO("worst relative error " << worst);
+  CHECK(bad == 0);
+}
+
 TEST_CASE("DVR march: boxturb48 hexes, a narrow band of enstrophy", "[render][dvr][isa][data]") {
   auto const path = test::shared_data_file("openfoam/boxturb48_dns.vtk");
   if (!path) return;

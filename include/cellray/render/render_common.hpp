@@ -65,10 +65,10 @@ struct PairTable {
 };
 
 /// Transfer function sampled into a table with the opacity corrected for the
-/// sample spacing (DVR samples mode), plus its integrals over value for cell
-/// segments.
+/// sample spacing (DVR samples mode), or its integrals over value (cell
+/// segments): tf_table makes the one the mode reads.
 struct PreparedTf {
-  PairTable r, g, b, a;  ///< `size` entries over [lo, lo + (size - 1) / scale]
+  PairTable r, g, b, a;  ///< samples: `size` entries over [lo, lo + (size - 1) / scale]
   /// Cell segments integrate a piece whose value runs from v0 to v1 over the
   /// transfer function between them, not at one point: its optical depth
   /// is exact, and its colour the extinction-weighted mean, however narrow
@@ -76,7 +76,7 @@ struct PreparedTf {
   /// than a piece's value span: tf_integrals). Per cell, 12 floats: hi[4]
   /// and lo[4], the integral over the cells before it (a double sum as two
   /// floats), then cell[4], over the cell itself; each for the extinction
-  /// -ln(1 - opacity) / unit distance, then r, g, b times it.
+  /// -ln(1 - opacity) / unit distance, then r, g, b times it. Segments only.
   std::vector<float> integrals;
   static constexpr int integral_stride = 12;
   float lo = 0.f, scale = 1.f;
