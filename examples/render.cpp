@@ -34,6 +34,7 @@
 #include <glm/common.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/task_arena.h>
 #include <tbb/task_group.h>
@@ -884,6 +885,14 @@ int run(Options const& o) {
   std::optional<tbb::global_control> thread_limit;
   if (o.threads > 0) thread_limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
   int const threads = o.threads > 0 ? o.threads : tbb::this_task_arena::max_concurrency();
+  // TBB's first parallel call loads its allocator and starts the worker
+  // threads (~2-3 ms on a fresh process here, and the workers join late):
+  // done beside the file's reading instead of inside the loader's first
+  // parallel loop.
+  struct PoolStart {
+    std::thread thread;
+    ~PoolStart() { thread.join(); }
+  } const pool_start{std::thread([] { tbb::parallel_for(0, 2, [](int) {}); })};
 
   // Load.
   Loaded l;

@@ -37,6 +37,23 @@ TEST_CASE("resize_zeroed keeps the old elements and zeroes the new ones, small a
   CHECK(shrink == std::vector<float>(5, 1.f));
 }
 
+TEST_CASE("populate_pages and populate_parallel map pages without changing what they hold", "[mesh]") {
+  // They only map pages ahead of the writes (a hint); written bytes, the
+  // bytes around an unaligned range and a fresh buffer's later writes stay.
+  for (uint64_t n : {uint64_t(100), uint64_t(40000), uint64_t(3) << 20}) {
+    detail::LargeVector<uint32_t> v(n);  // unset
+    for (uint64_t i = 0; i < n / 2; ++i) v[i] = uint32_t(3 * i + 1);
+    detail::populate_pages(v.data() + 3, (n - 5) * sizeof(uint32_t));  // unaligned both ends
+    detail::populate_parallel(v.data() + 1, (n - 1) * sizeof(uint32_t));
+    for (uint64_t i = n / 2; i < n; ++i) v[i] = uint32_t(3 * i + 1);
+    uint64_t wrong = 0;
+    for (uint64_t i = 0; i < n; ++i) wrong += v[i] != uint32_t(3 * i + 1);
+    CHECK(wrong == 0);
+  }
+  detail::populate_pages(nullptr, 0);
+  detail::populate_parallel(nullptr, 0);
+}
+
 TEST_CASE("LargeAllocator: large buffers start on a 2 MB boundary, every buffer is usable to its end", "[mesh]") {
   for (uint64_t bytes : {uint64_t(64), uint64_t(1) << 20, detail::large_buffer_bytes, (uint64_t(5) << 20) + 12}) {
     detail::LargeVector<uint32_t> v;

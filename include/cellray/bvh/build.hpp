@@ -99,12 +99,14 @@ MinMaxBvh build_tree(ItemBox* boxes, uint64_t n, Box3 const& cb, BuildOptions co
   BvhAccess::piece_offsets(bvh) = {0, n};
   if (n == 0) return bvh;
   LargeVector<Index> items(n);  // unset: every entry is written below
+  populate_parallel(items.data(), n * sizeof(Index));
   SubtreePool pool;  // before root: holds its private node buffers until assembled
   std::unique_ptr<Subtree> root;
   if (opt.builder == BvhBuilder::morton) {
-    std::unique_ptr<uint32_t[]> codes(new uint32_t[n]);
-    morton_order(boxes, n, cb, items.data(), codes.get());
-    MortonSplitter<Index> s{codes.get(), boxes, items.data(), opt.max_leaf_size};
+    LargeVector<uint32_t> codes(n);  // unset: every entry is written
+    populate_parallel(codes.data(), n * sizeof(uint32_t));
+    morton_order(boxes, n, cb, items.data(), codes.data());
+    MortonSplitter<Index> s{codes.data(), boxes, items.data(), opt.max_leaf_size};
     root = build_upper(s, 0, n, 0, Box3{}, pool);
   } else {
     tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, scan_block), [&](tbb::blocked_range<uint64_t> const& r) {

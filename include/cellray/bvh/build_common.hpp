@@ -500,18 +500,24 @@ class SubtreePool {
   std::pair<Node const*, NodeRange const*> keep(Node const* nodes, NodeRange const* ranges, uint64_t n) {
     Node* to = nullptr;
     NodeRange* to_ranges = nullptr;
+    uint64_t fresh = 0;  // nodes in a block this call made
     {
       std::lock_guard<std::mutex> lock(m_);
       if (blocks_.empty() || used_ + n > blocks_.back().nodes.size()) {
         Block b;
         b.nodes.resize(std::max<uint64_t>(block_nodes, n));
         b.ranges.resize(b.nodes.size());
+        fresh = b.nodes.size();
         blocks_.push_back(std::move(b));
         used_ = 0;
       }
       to = blocks_.back().nodes.data() + used_;
       to_ranges = blocks_.back().ranges.data() + used_;
       used_ += n;
+    }
+    if (fresh) {  // the block is filled one subtree after another: map its pages in one call each, outside the lock
+      populate_pages(to, fresh * sizeof(Node));
+      populate_pages(to_ranges, fresh * sizeof(NodeRange));
     }
     std::copy(nodes, nodes + n, to);
     std::copy(ranges, ranges + n, to_ranges);
@@ -628,6 +634,7 @@ inline void assemble(Subtree& root, NodeVector& nodes, ValueRanges& ranges) {
   uint64_t const total = count_nodes(root);
   if (total >= uint64_t(Node::inner)) throw Error("BVH would need more than 2^32 - 2 nodes");
   nodes.resize(total);
+  populate_parallel(nodes.data(), total * sizeof(Node));  // every node is written below
   ranges.resize(total);
   std::vector<PlaceJob> jobs;
   place(root, 0, 1, nodes.data(), ranges.data(), jobs);

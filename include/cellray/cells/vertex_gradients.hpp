@@ -25,6 +25,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "../memory.hpp"
 #include "../mesh/cell_mesh.hpp"
 
 namespace cellray {
@@ -164,8 +165,8 @@ template <int N> VertexGradients build_vertex_gradients(CellMesh<N> const& mesh)
     uint64_t const begin = nc * part / parts, end = nc * (part + 1) / parts;
     std::vector<float>& g = part == 0 ? out.g_ : g_more[part - 1];
     std::vector<float>& w = part == 0 ? weight : w_more[part - 1];
-    g.assign(3 * nv, 0.f);
-    w.assign(nv, 0.f);
+    detail::resize_zeroed(g, 3 * nv);  // pages mapped in one call (memory.hpp)
+    detail::resize_zeroed(w, nv);
     detail::accumulate_vertex_gradients(mesh, begin, end, g.data(), w.data());
   };
   if (parts == 1) {

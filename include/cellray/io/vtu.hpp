@@ -810,7 +810,10 @@ class VtuParser {
   InflatedBytes inflated_room(NumType t, uint64_t total) const {
     InflatedBytes b;
     if (t == NumType::f32 && !swap_ && total >= 4) cellray::detail::resize_zeroed(b.floats, total / 4);
-    else b.bytes.resize(size_t(total));
+    else {
+      b.bytes.resize(size_t(total));
+      if (total >= cellray::detail::populate_bytes) cellray::detail::populate_pages(b.bytes.data(), total);
+    }
     return b;
   }
   NumArray inflated_array(NumType t, uint64_t total, InflatedBytes&& b) const {
