@@ -133,8 +133,10 @@ template <class T, class A> void resize_zeroed(std::vector<T, A>& v, uint64_t n)
   static_assert(std::is_trivial_v<T>);
   if (n <= v.size() || (n - v.size()) * sizeof(T) < large_buffer_bytes / 4) {
     uint64_t const old = v.size();
-    v.reserve(n);
-    if ((n - old) * sizeof(T) >= populate_bytes) populate_pages(v.data() + old, (n - old) * sizeof(T));
+    if (n > old && (n - old) * sizeof(T) >= populate_bytes) {
+      v.reserve(n);
+      populate_pages(v.data() + old, (n - old) * sizeof(T));
+    }
     v.resize(n);  // a LargeVector leaves the new elements unset
     if (n > old) std::memset(static_cast<void*>(v.data() + old), 0, (n - old) * sizeof(T));
     return;
