@@ -59,30 +59,31 @@ inline void populate_pages([[maybe_unused]] void* p, [[maybe_unused]] uint64_t b
 #endif
 }
 
+/// f(b, e) for 256 KB blocks [b, e) of [0, bytes), from all threads.
+template <class F> void for_blocks_parallel(uint64_t bytes, F const& f) {
+  constexpr uint64_t block = uint64_t(1) << 18;
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (bytes + block - 1) / block, 1),
+                    [&](tbb::blocked_range<uint64_t> const& r) {
+                      f(r.begin() * block, std::min(bytes, r.end() * block));
+                    });
+}
+
 /// populate_pages from all threads, for a buffer that is written whole next
 /// (its entries left unset by a LargeVector's resize).
 inline void populate_parallel(void* p, uint64_t bytes) {
   if (bytes < populate_bytes) return;
-  constexpr uint64_t block = uint64_t(1) << 18;
   auto* const c = static_cast<unsigned char*>(p);
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (bytes + block - 1) / block, 1),
-                    [&](tbb::blocked_range<uint64_t> const& r) {
-                      uint64_t const b = r.begin() * block, e = std::min(bytes, r.end() * block);
-                      populate_pages(c + b, e - b);
-                    });
+  for_blocks_parallel(bytes, [c](uint64_t b, uint64_t e) { populate_pages(c + b, e - b); });
 }
 
 /// Zeroes [p, p + bytes) from all threads, so the first-write faults are
 /// shared (and the pages land near the threads that will use them).
 inline void zero_parallel(void* p, uint64_t bytes) {
-  constexpr uint64_t block = uint64_t(1) << 16;
   auto* const c = static_cast<unsigned char*>(p);
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (bytes + block - 1) / block, 4),
-                    [&](tbb::blocked_range<uint64_t> const& r) {
-                      uint64_t const b = r.begin() * block, e = std::min(bytes, r.end() * block);
-                      populate_pages(c + b, e - b);
-                      std::memset(c + b, 0, e - b);
-                    });
+  for_blocks_parallel(bytes, [c](uint64_t b, uint64_t e) {
+    populate_pages(c + b, e - b);
+    std::memset(c + b, 0, e - b);
+  });
 }
 
 /// An allocator for trivially constructible elements: `resize` leaves them
