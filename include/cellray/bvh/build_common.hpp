@@ -500,14 +500,12 @@ class SubtreePool {
   std::pair<Node const*, NodeRange const*> keep(Node const* nodes, NodeRange const* ranges, uint64_t n) {
     Node* to = nullptr;
     NodeRange* to_ranges = nullptr;
-    uint64_t fresh = 0;  // nodes in a block this call made
     {
       std::lock_guard<std::mutex> lock(m_);
       if (blocks_.empty() || used_ + n > blocks_.back().nodes.size()) {
         Block b;
         b.nodes.resize(std::max<uint64_t>(block_nodes, n));
         b.ranges.resize(b.nodes.size());
-        fresh = b.nodes.size();
         blocks_.push_back(std::move(b));
         used_ = 0;
       }
@@ -515,10 +513,10 @@ class SubtreePool {
       to_ranges = blocks_.back().ranges.data() + used_;
       used_ += n;
     }
-    if (fresh) {  // the block is filled one subtree after another: map its pages in one call each, outside the lock
-      populate_pages(to, fresh * sizeof(Node));
-      populate_pages(to_ranges, fresh * sizeof(NodeRange));
-    }
+    // Map the pages this copy writes in one call each (not a fresh block's
+    // whole 4 MB: the last block is mostly unused, a small mesh's too).
+    populate_pages(to, n * sizeof(Node));
+    populate_pages(to_ranges, n * sizeof(NodeRange));
     std::copy(nodes, nodes + n, to);
     std::copy(ranges, ranges + n, to_ranges);
     return {to, to_ranges};
