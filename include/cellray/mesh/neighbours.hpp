@@ -220,6 +220,9 @@ template <class Id, class Src> void match_tet_faces(Src const* idx, uint64_t n, 
       table.assign(mask + 1, uint32_t(k));
       if (group.size() < k) group.resize(2 * k);
       for (uint32_t i = 0; i < uint32_t(k); ++i) {
+        // The result row is stored at random below (in a cell order that is
+        // not spatial, as component8's): ask for its line now.
+        __builtin_prefetch(across + 4 * uint64_t(keys[i].cell), 1);
         size_t h = keys[i].hash() >> (64 - bits);
         uint32_t t = table[h];
         while (!((t == k) | keys[t].same(keys[i]))) t = table[h = (h + 1) & mask];
