@@ -212,9 +212,9 @@ template <class Id, class Src> void match_tet_faces(Src const* idx, uint64_t n, 
       }
       // Equal keys meet in an open-addressing table (over twice the keys,
       // linear probing): each key learns the first key of its group (`head`),
-      // which counts them and keeps the last one after itself. A first and a
-      // second occurrence are equally likely: cmovs select between them, the
-      // loop branches on collisions only.
+      // which counts them and keeps the last one after itself. GCC 12 makes
+      // the first/second-occurrence select a branch; written branch-free it
+      // was slower (docs/performance.md, "Kept", tet face neighbours).
       size_t const k = size_t(key - keys.data());
       key[0] = FaceKey<Id>::sentinel();  // what an empty slot (k) points at
       int bits = 4;
