@@ -6,11 +6,14 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
@@ -52,6 +55,23 @@ inline float parse_float(std::string const& text, std::string const& flag) {
   if (used == 0 || used != text.size() || !std::isfinite(v))
     throw UsageError(flag + ": '" + text + "' is not a finite number");
   return v;
+}
+
+/// A float flag's check: a finite number in [lo, hi]. CLI11's Range lets
+/// NaN through (every comparison with it is false), and `--opacity nan`
+/// rendered with the default opacity instead of failing.
+inline CLI::Validator finite_in(float lo, float hi) {
+  char range[64];
+  std::snprintf(range, sizeof range, "[%g, %g]", double(lo), double(hi));
+  return CLI::Validator(
+      [lo, hi, range = std::string(range)](std::string& text) -> std::string {
+        char* end = nullptr;
+        double const v = std::strtod(text.c_str(), &end);
+        if (text.empty() || *end != '\0' || !(v >= double(lo) && v <= double(hi)))
+          return "must be a number in " + range + ", got '" + shown(text) + "'";
+        return "";
+      },
+      "FLOAT in " + std::string(range));
 }
 
 inline std::vector<float> parse_floats(std::string const& text, std::string const& flag) {

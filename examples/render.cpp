@@ -366,7 +366,7 @@ void add_options(CLI::App& app, Options& o) {
                "Keep a JSON colour map's own value range instead of rescaling it to the data range");
   app.add_option("--opacity", o.opacity,
                  "DVR peak opacity of a preset ramp (default 0.8); scales a JSON file's opacity points")
-      ->check(CLI::Range(0.f, 1.f));
+      ->check(finite_in(0.f, 1.f));
   app.add_option("--unit-distance", o.unit_distance,
                  "DVR opacity unit distance, world units (default: scene diagonal / 10)")
       ->check(positive_finite);
@@ -406,10 +406,10 @@ void add_options(CLI::App& app, Options& o) {
       ->check(positive_finite);
   app.add_option("--azimuth", o.azimuth,
                  "Default view: turn the view direction DEG degrees about the up axis (+y) through the bounds' centre")
-      ->check(CLI::Range(-36000.f, 36000.f));
+      ->check(finite_in(-36000.f, 36000.f));
   app.add_option("--elevation", o.elevation,
                  "Default view: raise the view direction DEG degrees towards +y (the result is kept within +-89)")
-      ->check(CLI::Range(-180.f, 180.f));
+      ->check(finite_in(-180.f, 180.f));
   app.add_option("--orbit", o.orbit,
                  "Turntable: N frames around the up axis (+y) through the bounds' centre, 360/N degrees apart, one "
                  "BVH build; -o out/spin.png writes out/spin_0000.png, out/spin_0001.png, ...")
@@ -421,7 +421,7 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--font", o.font, "TrueType font for --legend and --title")->capture_default_str();
   app.add_option("--at", o.at, "Look-at point X,Y,Z (default: the bounds' centre)");
   app.add_option("--up", o.up, "Up vector X,Y,Z (default 0,1,0)");
-  app.add_option("--fov", o.fov, "Vertical field of view, degrees")->check(CLI::Range(0.01f, 179.f))->capture_default_str();
+  app.add_option("--fov", o.fov, "Vertical field of view, degrees")->check(finite_in(0.01f, 179.f))->capture_default_str();
   app.add_option("--size", o.size, "Image size WxH")->capture_default_str();
   app.add_option("-o,--output", o.out, "Output image, .png or .ppm")->capture_default_str();
   app.add_option("--isa", o.isa, "SIMD instruction set (auto honours CELLRAY_ISA)")
