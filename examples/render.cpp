@@ -143,6 +143,10 @@ TransferFunction read_paraview_tf(std::string const& path, float vmin, float vma
     for (auto const& v : *it) {
       if (!v.is_number()) throw IoError(path + ": \"" + key + "\" must be a list of numbers");
       out.push_back(v.get<double>());
+      // Positions and opacities are floats from here on: 1e300 would become inf.
+      if (!std::isfinite(float(out.back())))
+        throw IoError(path + ": \"" + key + "\" entry " + std::to_string(out.size() - 1) + " (" + shown(v.dump()) +
+                      ") is beyond the range of a float");
     }
     if (out.empty() || out.size() % 4 != 0)
       throw IoError(path + ": \"" + key + "\" must hold groups of 4 numbers, it has " + std::to_string(out.size()));
