@@ -49,6 +49,14 @@ cli_script("--title draws into the top of the image only" "
 cli_test("--legend with a missing font exits 3 and names it" --absent ${out}/nofont.png
   3 [=[font file /nonexistent/NoSuchFont\.ttf]=]
   ${render} --cells 1000 --legend --font /nonexistent/NoSuchFont.ttf -o ${out}/nofont.png)
+cli_test("--font naming a device exits 3 at once (it used to read /dev/zero forever)" --absent ${out}/devfont.png
+  3 [=[font file /dev/zero: is a device, not a regular font file]=]
+  timeout 60 ${render} --cells 1000 --title hi --font /dev/zero -o ${out}/devfont.png)
+# 100 KB of title: fitting it to the image measured every prefix anew (over
+# a minute); now one pass.
+cli_test("a 100 KB --title is cut to the image's width at once" --png ${out}/longtitle.png 64 48 0 any
+  timeout 60 sh -c [=[exec "$0" --cells 1000 --size 64x48 --title "$(head -c 100000 /dev/zero | tr '\0' x)" -o "$1"]=]
+  ${render} ${out}/longtitle.png)
 
 # Turntables: N numbered files, every view framed and centred, views
 # differ; one view is the plain render (the default view's distance is the
