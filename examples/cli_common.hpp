@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -73,6 +74,18 @@ inline CLI::Validator finite_in(float lo, float hi) {
       },
       "FLOAT in " + std::string(range));
 }
+
+/// CLI11's PositiveNumber prints its range as 309 digits (and lets NaN
+/// through); this says it plainly.
+inline CLI::Validator const positive_finite(
+    [](std::string& text) -> std::string {
+      char* end = nullptr;
+      double const v = std::strtod(text.c_str(), &end);
+      if (text.empty() || *end != '\0' || !(v > 0.0) || !(v <= double(std::numeric_limits<float>::max())))
+        return "must be a positive finite number, got '" + shown(text) + "'";
+      return "";
+    },
+    "POSITIVE");
 
 inline std::vector<float> parse_floats(std::string const& text, std::string const& flag) {
   std::vector<float> out;

@@ -722,8 +722,9 @@ int main(int argc, char** argv) {
   app.add_option("--normals", o.normals, "smooth, flat or central")->check(CLI::IsMember({"smooth", "flat", "central"}));
   app.add_option("--tf", o.tf, "Transfer function preset: cool-warm, viridis, inferno, grayscale");
   app.add_option("--opacity", o.opacity, "Largest DVR opacity per unit distance (default 0.8)")->check(finite_in(0.f, 1.f));
-  app.add_option("--unit-distance", o.unit_distance, "DVR opacity unit distance (default: diagonal / 10)");
-  app.add_option("--step", o.step, "DVR step, world units (default: the whole mesh's diagonal / 125 or / 500)");
+  app.add_option("--unit-distance", o.unit_distance, "DVR opacity unit distance (default: diagonal / 10)")->check(positive_finite);
+  app.add_option("--step", o.step, "DVR step, world units (default: the whole mesh's diagonal / 125 or / 500)")
+      ->check(positive_finite);
   app.add_option("--dvr-mode", o.dvr_mode, "segments or samples")->check(CLI::IsMember({"segments", "samples"}));
   app.add_option("--background", o.background, "R,G,B[,A] in [0,1], or white, black, transparent");
   app.add_option("--eye", o.eye, "Camera position X,Y,Z");
@@ -731,7 +732,7 @@ int main(int argc, char** argv) {
   app.add_option("--up", o.up, "Up vector X,Y,Z");
   app.add_option("--fov", o.fov, "Vertical field of view, degrees")->check(finite_in(0.01f, 179.f));
   app.add_option("--zoom", o.zoom, "Default view: scale of the fitted mesh")->check(finite_in(1e-3f, 1e3f));
-  app.add_option("--azimuth", o.azimuth, "Default view: degrees about +y");
+  app.add_option("--azimuth", o.azimuth, "Default view: degrees about +y")->check(finite_in(-36000.f, 36000.f));
   app.add_option("--elevation", o.elevation, "Default view: degrees up")->check(finite_in(-89.f, 89.f));
   app.add_option("--size", o.size, "Image size WxH");
   app.add_option("-o,--output", o.out, "Output image, .png or .ppm (written by rank 0)");

@@ -63,17 +63,6 @@ using namespace cellray_cli;
 /// --stats' total_ms counts from here (static initialisation, before main).
 Clock::time_point const process_start = Clock::now();
 
-/// CLI11's PositiveNumber prints its range as 309 digits; this says it plainly.
-CLI::Validator const positive_finite(
-    [](std::string& text) -> std::string {
-      char* end = nullptr;
-      double const v = std::strtod(text.c_str(), &end);
-      if (text.empty() || *end != '\0' || !(v > 0.0) || !(v <= double(std::numeric_limits<float>::max())))
-        return "must be a positive finite number, got '" + shown(text) + "'";
-      return "";
-    },
-    "POSITIVE");
-
 std::string gib(double bytes) {
   char s[32];
   std::snprintf(s, sizeof s, "%.1f GiB", bytes / double(uint64_t(1) << 30));
