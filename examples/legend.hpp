@@ -111,7 +111,7 @@ class Font {
     if (width(text, px) <= max_width) return text;
     // The longest prefix whose width with "..." fits, each prefix's width
     // summed as width() sums it: one pass (measuring every prefix anew took
-    // minutes on a 100 KB title).
+    // over a minute on a 100 KB title).
     auto const cps = utf8_codepoints(text);
     float const s = scale(px);
     int const dot = '.';
